@@ -1,0 +1,57 @@
+# Sourced by the other scripts: installs what isomarch needs on Debian
+# (idempotent, as root or with sudo), then sets the environment for building
+# and for running on lavapipe, Mesa's CPU Vulkan driver.
+
+set -euo pipefail
+
+ISOMARCH_PACKAGES=(
+    mesa-vulkan-drivers libvulkan1   # lavapipe and the Vulkan loader
+    vulkan-validationlayers          # the tests run with validation on
+    xvfb                             # window tests
+    cmake python3 g++ git            # shaderc is built from source by cargo
+    glslang-tools spirv-tools vulkan-tools  # inspection: glslangValidator, spirv-dis, vulkaninfo
+    ca-certificates curl pkg-config
+)
+
+isomarch_install_packages() {
+    local missing=()
+    for p in "${ISOMARCH_PACKAGES[@]}"; do
+        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
+    done
+    if ((${#missing[@]})); then
+        local sudo=""
+        [ "$(id -u)" -eq 0 ] || sudo="sudo"
+        echo "isomarch: installing ${missing[*]}" >&2
+        $sudo apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+    fi
+    if ! command -v cargo >/dev/null 2>&1; then
+        if [ -x "$HOME/.cargo/bin/cargo" ]; then
+            export PATH="$HOME/.cargo/bin:$PATH"
+        else
+            echo "isomarch: installing the Rust toolchain with rustup" >&2
+            curl --proto '=https' --tlsv1.2 -sSf https://sh.rustup.rs | sh -s -- -y --profile minimal >&2
+            export PATH="$HOME/.cargo/bin:$PATH"
+        fi
+    fi
+}
+
+isomarch_install_packages
+
+ISOMARCH_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+export ISOMARCH_ROOT
+# One target dir outside the clone, kept across clones and CI runs, so that
+# shaderc (about 8 minutes from source on 2 cores) is built once.
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/isomarch-target}"
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp/isomarch-runtime-$(id -u)}"
+mkdir -p "$XDG_RUNTIME_DIR" && chmod 700 "$XDG_RUNTIME_DIR"
+# Pin lavapipe unless the caller chose a driver (ISOMARCH_ANY_DRIVER=1 keeps
+# every installed driver, for machines with a GPU).
+if [ -z "${ISOMARCH_ANY_DRIVER:-}" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then
+    lvp=$(ls /usr/share/vulkan/icd.d/lvp_icd*.json 2>/dev/null | head -n 1 || true)
+    if [ -z "$lvp" ]; then
+        echo "isomarch: lavapipe's ICD file is missing from /usr/share/vulkan/icd.d (package mesa-vulkan-drivers)" >&2
+        exit 1
+    fi
+    export VK_DRIVER_FILES="$lvp" VK_ICD_FILENAMES="$lvp"
+fi

@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Runs the whole test suite on lavapipe, installing what is missing first.
+# Usage: bash scripts/test.sh [extra cargo test arguments]
+source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
+cd "$ISOMARCH_ROOT"
+# One profile (release) for tests and runs: shaderc is built once.
+cargo test --release --locked "$@"

@@ -1,0 +1,139 @@
+// The field: kernels of point and plane primitives, summed within a group,
+// max over groups (Eq. 20), minus iso. Mirrors src/field/mod.rs in f32.
+#ifndef FIELD_GLSL
+#define FIELD_GLSL
+
+#include "bindings.glsl"
+
+// Per-primitive kernel evaluations made by this invocation (values, bounds).
+uint g_evals = 0u;
+
+// Kernel of a squared distance q, and dk/dq. b = (R or r, 1/R² or s/r², w, -).
+float kernel_value(uint kind, vec4 b, float q, out float dk_dq) {
+    if (kind == PRIM_GAUSSIAN_POINT) {
+        float k = b.z * exp(-q * b.y);
+        dk_dq = -b.y * k;
+        return k;
+    }
+    float x = 1.0 - q * b.y;            // compact (1 - q/R²)³, Eq. 7
+    dk_dq = -3.0 * b.z * b.y * x * x;
+    return b.z * x * x * x;
+}
+
+bool kind_enabled(uint kind) {
+    return (kind == PRIM_COMPACT_POINT && SC_HAS_COMPACT_POINT != 0u)
+        || (kind == PRIM_GAUSSIAN_POINT && SC_HAS_GAUSSIAN_POINT != 0u)
+        || (kind == PRIM_COMPACT_PLANE && SC_HAS_COMPACT_PLANE != 0u);
+}
+
+// One primitive at p: kernel value, and its gradient added to `grad`.
+float prim_value(GpuPrimitive pr, vec3 p, bool want_grad, inout vec3 grad) {
+    uint kind = pr.ids.x;
+    if (!kind_enabled(kind)) return 0.0;
+    vec3 dir;
+    float q;
+    if (kind == PRIM_COMPACT_PLANE) {
+        float s = dot(pr.a.xyz, p) - pr.a.w;
+        q = s * s;
+        dir = s * pr.a.xyz;
+    } else {
+        dir = p - pr.a.xyz;
+        q = dot(dir, dir);
+    }
+    // A compact support that misses p costs only this test.
+    if (kind != PRIM_GAUSSIAN_POINT && q >= pr.b.x * pr.b.x) return 0.0;
+    g_evals += 1u;
+    float dk_dq;
+    float k = kernel_value(kind, pr.b, q, dk_dq);
+    if (want_grad) grad += 2.0 * dk_dq * dir;
+    return k;
+}
+
+// f(p) = max over groups of the group's sum, minus iso; with the gradient of
+// the group attaining the max when want_grad.
+float field_eval(vec3 p, bool want_grad, out vec3 grad) {
+    uint n = globals.sizes.x;
+    float best = -3.0e38;
+    vec3 best_grad = vec3(0.0);
+    float sum = 0.0;
+    vec3 sum_grad = vec3(0.0);
+    uint group = 0u;
+    for (uint i = 0u; i < n; ++i) {
+        GpuPrimitive pr = prims[i];
+        if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
+            if (sum > best) { best = sum; best_grad = sum_grad; }
+            sum = 0.0;
+            sum_grad = vec3(0.0);
+            group = pr.ids.y;
+        }
+        sum += prim_value(pr, p, want_grad, sum_grad);
+    }
+    if (sum > best) { best = sum; best_grad = sum_grad; }
+    grad = best_grad;
+    return best - globals.march.x;
+}
+
+float field(vec3 p) {
+    vec3 unused;
+    return field_eval(p, false, unused);
+}
+
+// |dk/dd| at distance d.
+float kernel_slope(uint kind, vec4 b, float d) {
+    float dk_dq;
+    kernel_value(kind, b, d * d, dk_dq);
+    return abs(2.0 * d * dk_dq);
+}
+
+float cos_along(vec3 v, vec3 u) {
+    float l = length(v);
+    return l > 0.0 ? abs(dot(v, u)) / l : 1.0;
+}
+
+// Segment tracing's bound on |df/dt| of one primitive over o + t u,
+// t in [ta, tb] (BENCHMARKS.md); 0 when the support misses the segment.
+float prim_segment_slope(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
+    uint kind = pr.ids.x;
+    if (!kind_enabled(kind)) return 0.0;
+    float support = kind == PRIM_GAUSSIAN_POINT ? 3.0e38 : pr.b.x;
+    float lo, hi, dd_dt;
+    if (kind == PRIM_COMPACT_PLANE) {
+        float sa = dot(pr.a.xyz, o + ta * u) - pr.a.w;
+        float sb = dot(pr.a.xyz, o + tb * u) - pr.a.w;
+        lo = sa * sb <= 0.0 ? 0.0 : min(abs(sa), abs(sb));
+        if (lo >= support) return 0.0;
+        hi = max(abs(sa), abs(sb));
+        dd_dt = abs(dot(pr.a.xyz, u));
+    } else {
+        vec3 c = pr.a.xyz;
+        float tc = clamp(dot(c - o, u), ta, tb);
+        lo = length(o + tc * u - c);
+        if (lo >= support) return 0.0;
+        vec3 ca = o + ta * u - c;
+        vec3 cb = o + tb * u - c;
+        hi = sqrt(max(dot(ca, ca), dot(cb, cb)));
+        dd_dt = max(cos_along(ca, u), cos_along(cb, u));
+    }
+    g_evals += 1u;
+    return kernel_slope(kind, pr.b, clamp(pr.b.w, lo, hi)) * dd_dt;
+}
+
+// Lipschitz bound of f on the segment: max over groups of summed slopes.
+float segment_lipschitz(vec3 o, vec3 u, float ta, float tb) {
+    uint n = globals.sizes.x;
+    float best = 0.0;
+    float sum = 0.0;
+    uint group = 0u;
+    for (uint i = 0u; i < n; ++i) {
+        GpuPrimitive pr = prims[i];
+        if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
+            best = max(best, sum);
+            sum = 0.0;
+            group = pr.ids.y;
+        }
+        sum += prim_segment_slope(pr, o, u, ta, tb);
+    }
+    return max(best, sum);
+}
+
+#endif

@@ -1,0 +1,204 @@
+//! The benchmark protocol of BENCHMARKS.md: the same seeded rays for every
+//! method in one run, compared with the f64 reference.
+
+use std::sync::Arc;
+
+use anyhow::Result;
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::field::Field;
+use crate::field::reference::{ReferenceOptions, first_hit};
+use crate::gpu::Context;
+use crate::layout::{FLAG_HIT, GpuResult, GpuRay};
+use crate::method::Method;
+use crate::output::MarchStats;
+use crate::render::rays::{Ray, protocol_rays};
+use crate::render::Renderer;
+use crate::scene::Scene;
+
+/// BENCHMARKS.md: 1,048,576 rays unless told otherwise.
+pub const DEFAULT_RAYS: usize = 1 << 20;
+pub const DEFAULT_SEED: u64 = 20230601;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct MethodReport {
+    pub method: String,
+    pub steps_per_ray: f64,
+    pub evals_per_ray: f64,
+    pub refine_per_ray: f64,
+    pub ns_per_ray: Option<f64>,
+    pub hit_rate: f64,
+    /// The reference finds a crossing that the method misses or reports
+    /// later than the reference plus the minimum step.
+    pub miss_rate: f64,
+    /// The method reports a crossing earlier than the reference minus the
+    /// refinement tolerance (or where the reference finds none).
+    pub false_hit_rate: f64,
+    pub mean_abs_error: f64,
+    pub max_abs_error: f64,
+    pub out_of_steps_rate: f64,
+    /// Ratios to the first method of the run.
+    pub step_ratio: f64,
+    pub time_ratio: Option<f64>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub scene: String,
+    pub device: String,
+    pub rays: usize,
+    pub seed: u64,
+    pub min_step: f64,
+    pub max_steps: u32,
+    pub reference_hit_rate: f64,
+    pub methods: Vec<MethodReport>,
+}
+
+fn progress(len: u64, what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template("{msg:>22} [{bar:30}] {pos}/{len} rays ({per_sec}, {eta} left)")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar.set_message(what.to_string());
+    bar
+}
+
+/// The reference's first hit for every ray (`None`: no crossing).
+pub fn reference_hits(scene: &Scene, rays: &[GpuRay], show_progress: bool) -> Vec<Option<f64>> {
+    let field = Field::new(scene);
+    let opts = ReferenceOptions::for_min_radius(scene.min_radius());
+    let bar = if show_progress { progress(rays.len() as u64, "f64 reference") } else { ProgressBar::hidden() };
+    let out = rays
+        .par_iter()
+        .map(|r| {
+            let ray = Ray::from_gpu(r);
+            let hit = if ray.misses() { None } else { first_hit(&field, ray.o, ray.d, ray.t0, ray.t1, opts) };
+            bar.inc(1);
+            hit
+        })
+        .collect();
+    bar.finish_and_clear();
+    out
+}
+
+/// Accuracy of one method's results against the reference.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Accuracy {
+    pub misses: usize,
+    pub false_hits: usize,
+    pub mean_abs_error: f64,
+    pub max_abs_error: f64,
+}
+
+/// Compares hits with the reference: a miss is a reference crossing found
+/// late (beyond `late_by`) or not at all; a false hit is a crossing earlier
+/// than the reference by more than `early_by`, or where it has none.
+pub fn accuracy(results: &[GpuResult], reference: &[Option<f64>], late_by: f64, early_by: f64) -> Accuracy {
+    let mut a = Accuracy::default();
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (r, reference) in results.iter().zip(reference) {
+        let hit = (r.counts[3] & FLAG_HIT != 0).then_some(f64::from(r.hit[3]));
+        match (hit, *reference) {
+            (Some(t), Some(tr)) => {
+                if t > tr + late_by {
+                    a.misses += 1;
+                } else if t < tr - early_by {
+                    a.false_hits += 1;
+                }
+                let e = (t - tr).abs();
+                sum += e;
+                n += 1;
+                a.max_abs_error = a.max_abs_error.max(e);
+            }
+            (None, Some(_)) => a.misses += 1,
+            (Some(_), None) => a.false_hits += 1,
+            (None, None) => {}
+        }
+    }
+    a.mean_abs_error = if n > 0 { sum / n as f64 } else { 0.0 };
+    a
+}
+
+/// Runs every method on the same protocol rays and compares them.
+pub fn run(ctx: &Arc<Context>, scene: &Scene, methods: &[Method], rays: usize, seed: u64, timeout: std::time::Duration) -> Result<BenchReport> {
+    let ray_set = protocol_rays(&scene.bounds, rays, seed);
+    let reference = reference_hits(scene, &ray_set, true);
+    let mut renderer = Renderer::new(ctx, scene)?;
+    renderer.timeout = timeout;
+    renderer.shade = false;
+    let mut reports: Vec<MethodReport> = Vec::new();
+    for &method in methods {
+        let bar = progress(rays as u64, &format!("{method}"));
+        let out = renderer.march(method, &ray_set, |done| bar.set_position(done as u64))?;
+        bar.finish_and_clear();
+        let stats = MarchStats::of(&out.results, out.gpu_ns);
+        let acc = accuracy(&out.results, &reference, scene.marching.min_step, scene.refine_tolerance());
+        let n = rays.max(1) as f64;
+        let first = reports.first();
+        reports.push(MethodReport {
+            method: method.to_string(),
+            steps_per_ray: stats.steps_per_ray,
+            evals_per_ray: stats.evals_per_ray,
+            refine_per_ray: stats.refine_per_ray,
+            ns_per_ray: stats.ns_per_ray,
+            hit_rate: stats.hit_rate,
+            miss_rate: acc.misses as f64 / n,
+            false_hit_rate: acc.false_hits as f64 / n,
+            mean_abs_error: acc.mean_abs_error,
+            max_abs_error: acc.max_abs_error,
+            out_of_steps_rate: stats.out_of_steps_rate,
+            step_ratio: first.map_or(1.0, |f| stats.steps_per_ray / f.steps_per_ray),
+            time_ratio: match first {
+                None => stats.ns_per_ray.map(|_| 1.0),
+                Some(f) => stats.ns_per_ray.zip(f.ns_per_ray).map(|(a, b)| a / b),
+            },
+        });
+    }
+    let ref_hits = reference.iter().filter(|r| r.is_some()).count();
+    Ok(BenchReport {
+        scene: scene.source.clone(),
+        device: ctx.info.name.clone(),
+        rays,
+        seed,
+        min_step: scene.marching.min_step,
+        max_steps: scene.marching.max_steps,
+        reference_hit_rate: ref_hits as f64 / rays.max(1) as f64,
+        methods: reports,
+    })
+}
+
+/// The report as a markdown table.
+pub fn markdown(report: &BenchReport) -> String {
+    let base = report.methods.first().map_or("-", |m| m.method.as_str());
+    let mut s = format!(
+        "scene `{}`, {} rays (seed {}), minimum step {}, maximum steps {}, device {}; reference hit rate {:.4}\n\n",
+        report.scene, report.rays, report.seed, report.min_step, report.max_steps, report.device, report.reference_hit_rate
+    );
+    s.push_str(&format!(
+        "| method | steps/ray | evals/ray | refine/ray | ns/ray | hit rate | miss rate | false hits | mean err | max err | steps vs {base} | time vs {base} |\n"
+    ));
+    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    let opt = |v: Option<f64>, p: usize| v.map_or("n/a".to_string(), |v| format!("{v:.p$}"));
+    for m in &report.methods {
+        s.push_str(&format!(
+            "| {} | {:.2} | {:.1} | {:.2} | {} | {:.4} | {:.5} | {:.5} | {:.2e} | {:.2e} | {:.3}x | {} |\n",
+            m.method,
+            m.steps_per_ray,
+            m.evals_per_ray,
+            m.refine_per_ray,
+            opt(m.ns_per_ray, 1),
+            m.hit_rate,
+            m.miss_rate,
+            m.false_hit_rate,
+            m.mean_abs_error,
+            m.max_abs_error,
+            m.step_ratio,
+            m.time_ratio.map_or("n/a".into(), |r| format!("{r:.3}x")),
+        ));
+    }
+    s
+}

@@ -1,0 +1,306 @@
+//! The f64 CPU reference of every field: the same maths as the shaders, in
+//! double precision. It is the oracle for the tests and the benchmarks.
+
+pub mod reference;
+
+use glam::DVec3;
+
+use crate::scene::{Kernel, Primitive, Scene};
+
+/// `|dk/dd|` peaks at `d = R/√5` for the compact kernel, with value
+/// `96/(25√5) · w/R` (PAPER-NOTES.md).
+pub const COMPACT_PEAK_SLOPE: f64 = 96.0 / (25.0 * 2.236_067_977_499_79);
+
+/// One kernel, precomputed for evaluation.
+#[derive(Clone, Copy, Debug)]
+pub struct KernelEval {
+    pub gaussian: bool,
+    /// Support radius R (compact) or scale r (Gaussian).
+    pub scale: f64,
+    /// 1/R² (compact) or s/r² (Gaussian).
+    pub inv: f64,
+    pub weight: f64,
+    /// Distance where `|dk/dd|` peaks.
+    pub peak_distance: f64,
+    /// The peak of `|dk/dd|`.
+    pub peak_slope: f64,
+}
+
+impl KernelEval {
+    pub fn new(k: Kernel) -> KernelEval {
+        match k {
+            Kernel::Compact { radius, weight } => KernelEval {
+                gaussian: false,
+                scale: radius,
+                inv: 1.0 / (radius * radius),
+                weight,
+                peak_distance: radius / 5f64.sqrt(),
+                peak_slope: COMPACT_PEAK_SLOPE * weight / radius,
+            },
+            Kernel::Gaussian { r, s, weight } => KernelEval {
+                gaussian: true,
+                scale: r,
+                inv: s / (r * r),
+                weight,
+                peak_distance: r / (2.0 * s).sqrt(),
+                peak_slope: weight * (2.0 * s).sqrt() / r * (-0.5f64).exp(),
+            },
+        }
+    }
+
+    /// The kernel of a squared distance `q`.
+    pub fn value(&self, q: f64) -> f64 {
+        if self.gaussian {
+            self.weight * (-q * self.inv).exp()
+        } else {
+            let x = 1.0 - q * self.inv;
+            if x > 0.0 { self.weight * x * x * x } else { 0.0 }
+        }
+    }
+
+    /// `dk/dq`, so that `∇k = 2 (dk/dq) (p - c)` for a point.
+    pub fn dq(&self, q: f64) -> f64 {
+        if self.gaussian {
+            -self.inv * self.weight * (-q * self.inv).exp()
+        } else {
+            let x = 1.0 - q * self.inv;
+            if x > 0.0 { -3.0 * self.weight * self.inv * x * x } else { 0.0 }
+        }
+    }
+
+    /// `|dk/dd|` at distance `d`.
+    pub fn slope(&self, d: f64) -> f64 {
+        (2.0 * d * self.dq(d * d)).abs()
+    }
+
+    /// The largest `|dk/dd|` for distances in `[lo, hi]`: `|dk/dd|` is
+    /// unimodal with its peak at `peak_distance`.
+    pub fn max_slope(&self, lo: f64, hi: f64) -> f64 {
+        self.slope(self.peak_distance.clamp(lo, hi))
+    }
+
+    /// Distance beyond which the kernel is exactly zero.
+    pub fn support(&self) -> f64 {
+        if self.gaussian { f64::INFINITY } else { self.scale }
+    }
+}
+
+/// A primitive, precomputed.
+#[derive(Clone, Copy, Debug)]
+pub enum PrimEval {
+    Point { center: DVec3, kernel: KernelEval },
+    Plane { normal: DVec3, offset: f64, kernel: KernelEval },
+}
+
+impl PrimEval {
+    pub fn new(p: &Primitive) -> PrimEval {
+        match *p {
+            Primitive::Point { center, kernel } => PrimEval::Point { center, kernel: KernelEval::new(kernel) },
+            Primitive::Plane { normal, offset, radius, weight } => PrimEval::Plane {
+                normal,
+                offset,
+                kernel: KernelEval::new(Kernel::Compact { radius, weight }),
+            },
+        }
+    }
+
+    pub fn kernel(&self) -> &KernelEval {
+        match self {
+            PrimEval::Point { kernel, .. } | PrimEval::Plane { kernel, .. } => kernel,
+        }
+    }
+
+    /// Value and gradient at `p`.
+    pub fn value_gradient(&self, p: DVec3) -> (f64, DVec3) {
+        match *self {
+            PrimEval::Point { center, kernel } => {
+                let d = p - center;
+                let q = d.length_squared();
+                (kernel.value(q), 2.0 * kernel.dq(q) * d)
+            }
+            PrimEval::Plane { normal, offset, kernel } => {
+                let s = normal.dot(p) - offset;
+                let q = s * s;
+                (kernel.value(q), 2.0 * kernel.dq(q) * s * normal)
+            }
+        }
+    }
+
+    pub fn value(&self, p: DVec3) -> f64 {
+        match *self {
+            PrimEval::Point { center, kernel } => kernel.value((p - center).length_squared()),
+            PrimEval::Plane { normal, offset, kernel } => {
+                let s = normal.dot(p) - offset;
+                kernel.value(s * s)
+            }
+        }
+    }
+
+    /// Segment tracing's bound on `|df/dt|` over `o + t u`, `t ∈ [ta, tb]`
+    /// (BENCHMARKS.md): the largest `|dk/dd|` over the segment's distance
+    /// range, times the largest `|∂d/∂t|` at its ends. Zero when the support
+    /// misses the segment.
+    pub fn segment_slope(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> f64 {
+        match *self {
+            PrimEval::Point { center, kernel } => {
+                let ca = o + ta * u - center;
+                let cb = o + tb * u - center;
+                let tc = (center - o).dot(u).clamp(ta, tb);
+                let lo = (o + tc * u - center).length();
+                if lo >= kernel.support() {
+                    return 0.0;
+                }
+                let (la, lb) = (ca.length(), cb.length());
+                let cos = |v: DVec3, l: f64| if l > 0.0 { (v.dot(u) / l).abs() } else { 1.0 };
+                kernel.max_slope(lo, la.max(lb)) * cos(ca, la).max(cos(cb, lb))
+            }
+            PrimEval::Plane { normal, offset, kernel } => {
+                let sa = normal.dot(o + ta * u) - offset;
+                let sb = normal.dot(o + tb * u) - offset;
+                let lo = if sa * sb <= 0.0 { 0.0 } else { sa.abs().min(sb.abs()) };
+                if lo >= kernel.support() {
+                    return 0.0;
+                }
+                kernel.max_slope(lo, sa.abs().max(sb.abs())) * normal.dot(u).abs()
+            }
+        }
+    }
+}
+
+/// The scene's field `f = max over groups of (sum of kernels) - iso`.
+#[derive(Clone, Debug)]
+pub struct Field {
+    pub groups: Vec<Vec<PrimEval>>,
+    pub iso: f64,
+}
+
+impl Field {
+    pub fn new(scene: &Scene) -> Field {
+        Field { groups: scene.groups.iter().map(|g| g.iter().map(PrimEval::new).collect()).collect(), iso: scene.iso }
+    }
+
+    /// `f(p)`: positive inside.
+    pub fn value(&self, p: DVec3) -> f64 {
+        self.groups
+            .iter()
+            .map(|g| g.iter().map(|prim| prim.value(p)).sum::<f64>())
+            .fold(f64::NEG_INFINITY, f64::max)
+            - self.iso
+    }
+
+    /// `f(p)` and its gradient (of the group that attains the max).
+    pub fn value_gradient(&self, p: DVec3) -> (f64, DVec3) {
+        let mut best = (f64::NEG_INFINITY, DVec3::ZERO);
+        for g in &self.groups {
+            let (v, grad) = g.iter().fold((0.0, DVec3::ZERO), |(v, gr), prim| {
+                let (pv, pg) = prim.value_gradient(p);
+                (v + pv, gr + pg)
+            });
+            if v > best.0 {
+                best = (v, grad);
+            }
+        }
+        (best.0 - self.iso, best.1)
+    }
+
+    /// Global Lipschitz constant of `f` (Eq. 10): for a max of sums, the
+    /// largest group sum of per-kernel peaks.
+    pub fn lipschitz(&self) -> f64 {
+        self.groups
+            .iter()
+            .map(|g| g.iter().map(|p| p.kernel().peak_slope).sum::<f64>())
+            .fold(0.0, f64::max)
+    }
+
+    /// Segment tracing's Lipschitz bound on `[ta, tb]` along the ray.
+    pub fn segment_lipschitz(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> f64 {
+        self.groups
+            .iter()
+            .map(|g| g.iter().map(|p| p.segment_slope(o, u, ta, tb)).sum::<f64>())
+            .fold(0.0, f64::max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+
+    fn two_group_scene() -> Scene {
+        Scene::parse(
+            r#"Scene(camera: (eye: (0.0, 0.0, 8.0), target: (0.0, 0.0, 0.0)), iso: 0.5, groups: [
+                (primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0)),
+                              Point(center: (1.0, 0.5, 0.0), kernel: Gaussian(r: 1.0, s: 2.0))]),
+                (primitives: [Point(center: (-1.5, 0.0, 0.3), kernel: Compact(radius: 1.5))]),
+            ])"#,
+            "test",
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn gradient_matches_central_differences() {
+        let f = Field::new(&two_group_scene());
+        let h = 1e-6;
+        for p in [DVec3::new(0.3, 0.2, 0.1), DVec3::new(1.2, 0.4, -0.3), DVec3::new(-1.4, 0.1, 0.2)] {
+            let (_, g) = f.value_gradient(p);
+            for axis in 0..3 {
+                let mut e = DVec3::ZERO;
+                e[axis] = h;
+                let fd = (f.value(p + e) - f.value(p - e)) / (2.0 * h);
+                assert!((fd - g[axis]).abs() < 1e-6 * (1.0 + g.length()), "axis {axis} at {p}: {fd} vs {}", g[axis]);
+            }
+        }
+    }
+
+    #[test]
+    fn kernel_peak_slopes_are_the_maxima_of_the_slopes() {
+        for k in [Kernel::Compact { radius: 1.7, weight: 1.3 }, Kernel::Gaussian { r: 0.8, s: 3.0, weight: 2.0 }] {
+            let e = KernelEval::new(k);
+            let dense = (0..100_000).map(|i| e.slope(i as f64 * 1e-4 * 3.0 * e.scale)).fold(0.0, f64::max);
+            assert!((dense - e.peak_slope).abs() < 1e-6 * e.peak_slope, "{k:?}: {dense} vs {}", e.peak_slope);
+            assert!((e.slope(e.peak_distance) - e.peak_slope).abs() < 1e-12 * e.peak_slope);
+        }
+    }
+
+    #[test]
+    fn segment_lipschitz_bounds_the_derivative_on_random_segments() {
+        use rand::{Rng, SeedableRng};
+        let f = Field::new(&two_group_scene());
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        for _ in 0..2000 {
+            let o = DVec3::new(rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0));
+            let u = DVec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize();
+            let (ta, tb) = (rng.random_range(0.0..4.0), rng.random_range(4.0..8.0));
+            let lambda = f.segment_lipschitz(o, u, ta, tb);
+            assert!(lambda <= f.lipschitz() + 1e-12);
+            let h = 1e-5;
+            for i in 0..200 {
+                let t = ta + (tb - ta) * f64::from(i) / 200.0;
+                let d = (f.value(o + (t + h) * u) - f.value(o + (t - h) * u)) / (2.0 * h);
+                assert!(d.abs() <= lambda * (1.0 + 1e-6) + 1e-9, "|f'| = {} > λ = {lambda}", d.abs());
+            }
+        }
+    }
+
+    #[test]
+    fn reference_finds_the_analytic_sphere() {
+        let s = Scene::parse(
+            r#"Scene(camera: (eye: (0.0, 0.0, 8.0), target: (0.0, 0.0, 0.0)), iso: 0.5,
+                groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))])])"#,
+            "test",
+        )
+        .unwrap();
+        let f = Field::new(&s);
+        let radius = 2.0 * (1.0 - 0.5f64.cbrt()).sqrt();
+        let opts = reference::ReferenceOptions::for_min_radius(2.0);
+        let o = DVec3::new(0.3, -0.2, 5.0);
+        let all = reference::crossings(&f, o, DVec3::NEG_Z, 0.0, 10.0, opts, false);
+        let closest = DVec3::new(0.3, -0.2, 0.0).length();
+        let half = (radius * radius - closest * closest).sqrt();
+        assert_eq!(all.len(), 2);
+        assert!(all[0].entering && !all[1].entering);
+        assert!((all[0].t - (5.0 - half)).abs() < 1e-8);
+        assert!((all[1].t - (5.0 + half)).abs() < 1e-8);
+    }
+}

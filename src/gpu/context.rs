@@ -1,0 +1,319 @@
+//! Instance, physical device choice, logical device, queue and allocator.
+
+use std::ffi::{CStr, CString, c_void};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+
+use anyhow::{Context as _, Result, anyhow, bail};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// How to open the GPU.
+#[derive(Clone, Debug, Default)]
+pub struct ContextOptions {
+    /// Enable the Khronos validation layer and record its messages. Also
+    /// enabled by `ISOMARCH_VALIDATION=1`.
+    pub validation: bool,
+    /// Pick a device by index in `isomarch info` order or by a substring of
+    /// its name; `None` picks discrete, then integrated, then CPU.
+    pub device: Option<String>,
+}
+
+/// What `isomarch info` prints about one device.
+#[derive(Clone, Debug)]
+pub struct DeviceInfo {
+    pub index: usize,
+    pub name: String,
+    pub kind: String,
+    pub api_version: String,
+    pub driver: String,
+    pub max_storage_buffer_range: u64,
+    pub max_compute_workgroup_invocations: u32,
+    pub max_compute_workgroup_count: [u32; 3],
+    pub timestamp_period_ns: f32,
+    pub timestamps: bool,
+    pub memory_heaps_mib: Vec<u64>,
+}
+
+/// The Vulkan device and everything with its lifetime.
+///
+/// If a fence deadline passes, the GPU may still be using any object, and
+/// lavapipe cannot cancel a dispatch: [`Context::mark_hung`] makes every
+/// wrapper leak instead of destroying, so the process can report and exit.
+pub struct Context {
+    _entry: ash::Entry,
+    pub instance: ash::Instance,
+    pub physical_device: vk::PhysicalDevice,
+    pub device: ash::Device,
+    pub queue: vk::Queue,
+    pub queue_family: u32,
+    pub info: DeviceInfo,
+    allocator: Mutex<Option<Allocator>>,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    messages: Arc<Mutex<Vec<String>>>,
+    // Boxed so its address, given to the debug callback, never moves.
+    _callback_sink: Option<Box<Arc<Mutex<Vec<String>>>>>,
+    hung: AtomicBool,
+}
+
+fn validation_requested(options: &ContextOptions) -> bool {
+    options.validation || std::env::var("ISOMARCH_VALIDATION").is_ok_and(|v| v == "1")
+}
+
+fn load_entry() -> Result<ash::Entry> {
+    // SAFETY: loading the system Vulkan loader; its initialisation has no
+    // preconditions beyond being a well-formed shared library.
+    unsafe { ash::Entry::load() }.map_err(|e| {
+        anyhow!("cannot load the Vulkan loader (libvulkan.so.1): {e}; install libvulkan1 and a driver such as mesa-vulkan-drivers")
+    })
+}
+
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    // Never panic here: this runs inside the driver's call stack.
+    if data.is_null() || user.is_null() {
+        return vk::FALSE;
+    }
+    // SAFETY: `user` is the boxed Arc owned by the Context, which outlives
+    // the messenger; `data` is valid for the duration of the callback.
+    let (sink, message) = unsafe {
+        let sink = &*(user as *const Arc<Mutex<Vec<String>>>);
+        let message = if (*data).p_message.is_null() {
+            String::from("(no message)")
+        } else {
+            CStr::from_ptr((*data).p_message).to_string_lossy().into_owned()
+        };
+        (sink, message)
+    };
+    if let Ok(mut messages) = sink.lock() {
+        messages.push(format!("{severity:?}: {message}"));
+    }
+    vk::FALSE
+}
+
+fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice, index: usize) -> DeviceInfo {
+    // SAFETY: `pd` was enumerated from `instance`.
+    let (props, mem, families) = unsafe {
+        (
+            instance.get_physical_device_properties(pd),
+            instance.get_physical_device_memory_properties(pd),
+            instance.get_physical_device_queue_family_properties(pd),
+        )
+    };
+    let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let v = props.api_version;
+    let heaps = mem.memory_heaps[..mem.memory_heap_count as usize].iter().map(|h| h.size >> 20).collect();
+    let timestamps = props.limits.timestamp_compute_and_graphics == vk::TRUE
+        || families.iter().any(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE) && f.timestamp_valid_bits > 0);
+    DeviceInfo {
+        index,
+        name,
+        kind: format!("{:?}", props.device_type),
+        api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
+        driver: format!("{:#x}", props.driver_version),
+        max_storage_buffer_range: u64::from(props.limits.max_storage_buffer_range),
+        max_compute_workgroup_invocations: props.limits.max_compute_work_group_invocations,
+        max_compute_workgroup_count: props.limits.max_compute_work_group_count,
+        timestamp_period_ns: props.limits.timestamp_period,
+        timestamps,
+        memory_heaps_mib: heaps,
+    }
+}
+
+fn device_rank(kind: vk::PhysicalDeviceType) -> u32 {
+    match kind {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+fn create_instance(entry: &ash::Entry, validation: bool) -> Result<ash::Instance> {
+    let app_name = CString::new("isomarch")?;
+    let app = vk::ApplicationInfo::default()
+        .application_name(&app_name)
+        .application_version(1)
+        .engine_name(&app_name)
+        .api_version(vk::API_VERSION_1_2);
+    let mut layers = Vec::new();
+    let mut extensions = Vec::new();
+    if validation {
+        // SAFETY: plain enumeration.
+        let available = unsafe { entry.enumerate_instance_layer_properties() }.context("listing Vulkan layers")?;
+        let found = available.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER));
+        if !found {
+            bail!("validation requested but {VALIDATION_LAYER:?} is not installed (Debian: apt-get install vulkan-validationlayers)");
+        }
+        layers.push(VALIDATION_LAYER.as_ptr());
+        extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+    }
+    let info = vk::InstanceCreateInfo::default()
+        .application_info(&app)
+        .enabled_layer_names(&layers)
+        .enabled_extension_names(&extensions);
+    // SAFETY: all pointers in `info` outlive the call.
+    unsafe { entry.create_instance(&info, None) }.context("creating the Vulkan instance (is a Vulkan driver installed?)")
+}
+
+/// Lists the Vulkan devices with the limits that matter to isomarch.
+pub fn list_devices() -> Result<Vec<DeviceInfo>> {
+    let entry = load_entry()?;
+    let instance = create_instance(&entry, false)?;
+    // SAFETY: the instance is valid and destroyed right after use.
+    let result = unsafe { instance.enumerate_physical_devices() }
+        .context("enumerating Vulkan devices")
+        .map(|pds| pds.iter().enumerate().map(|(i, &pd)| describe(&instance, pd, i)).collect());
+    // SAFETY: no object created from the instance survives.
+    unsafe { instance.destroy_instance(None) };
+    result
+}
+
+impl Context {
+    /// Opens the chosen device with one compute queue.
+    pub fn new(options: &ContextOptions) -> Result<Arc<Context>> {
+        let validation = validation_requested(options);
+        let entry = load_entry()?;
+        let instance = create_instance(&entry, validation)?;
+        let messages = Arc::new(Mutex::new(Vec::new()));
+        let mut callback_sink = None;
+        let mut debug = None;
+        if validation {
+            let sink = Box::new(Arc::clone(&messages));
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(debug_callback))
+                .user_data(&*sink as *const Arc<Mutex<Vec<String>>> as *mut c_void);
+            // SAFETY: the sink box lives in the Context, past the messenger.
+            let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }
+                .context("creating the validation messenger")?;
+            debug = Some((loader, messenger));
+            callback_sink = Some(sink);
+        }
+
+        // SAFETY: the instance is valid.
+        let pds = unsafe { instance.enumerate_physical_devices() }.context("enumerating Vulkan devices")?;
+        let infos: Vec<DeviceInfo> = pds.iter().enumerate().map(|(i, &pd)| describe(&instance, pd, i)).collect();
+        let chosen = match &options.device {
+            Some(sel) => {
+                let by_index = sel.parse::<usize>().ok().filter(|&i| i < pds.len());
+                by_index
+                    .or_else(|| infos.iter().position(|d| d.name.to_lowercase().contains(&sel.to_lowercase())))
+                    .ok_or_else(|| {
+                        let names: Vec<String> = infos.iter().map(|d| format!("{}: {}", d.index, d.name)).collect();
+                        anyhow!("--device {sel:?} matches no Vulkan device; available: {}", names.join(", "))
+                    })?
+            }
+            None => (0..pds.len())
+                .min_by_key(|&i| {
+                    // SAFETY: enumerated from this instance.
+                    device_rank(unsafe { instance.get_physical_device_properties(pds[i]) }.device_type)
+                })
+                .ok_or_else(|| anyhow!("no Vulkan device found; install mesa-vulkan-drivers for lavapipe"))?,
+        };
+        let physical_device = pds[chosen];
+        let info = infos[chosen].clone();
+
+        // SAFETY: enumerated from this instance.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(physical_device) };
+        let queue_family = families
+            .iter()
+            .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+            .ok_or_else(|| anyhow!("device {} has no compute queue", info.name))? as u32;
+        let priorities = [1.0f32];
+        let queue_info = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        // SAFETY: valid physical device and create info.
+        let device = unsafe { instance.create_device(physical_device, &device_info, None) }
+            .with_context(|| format!("creating a logical device on {}", info.name))?;
+        // SAFETY: queue 0 of a family we requested.
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })
+        .context("creating the GPU memory allocator")?;
+
+        Ok(Arc::new(Context {
+            _entry: entry,
+            instance,
+            physical_device,
+            device,
+            queue,
+            queue_family,
+            info,
+            allocator: Mutex::new(Some(allocator)),
+            debug,
+            messages,
+            _callback_sink: callback_sink,
+            hung: AtomicBool::new(false),
+        }))
+    }
+
+    /// Whether the validation layer is active.
+    pub fn validation_enabled(&self) -> bool {
+        self.debug.is_some()
+    }
+
+    /// Validation messages recorded so far (warnings and errors).
+    pub fn validation_messages(&self) -> Vec<String> {
+        self.messages.lock().map(|m| m.clone()).unwrap_or_default()
+    }
+
+    /// Runs `f` with the allocator.
+    pub(crate) fn with_allocator<T>(&self, f: impl FnOnce(&mut Allocator) -> Result<T>) -> Result<T> {
+        let mut guard = self.allocator.lock().map_err(|_| anyhow!("GPU allocator lock poisoned"))?;
+        let allocator = guard.as_mut().ok_or_else(|| anyhow!("GPU allocator already destroyed"))?;
+        f(allocator)
+    }
+
+    /// Records that the GPU may still be executing work we gave up on: from
+    /// now on nothing is destroyed, only leaked.
+    pub fn mark_hung(&self) {
+        self.hung.store(true, Ordering::SeqCst);
+    }
+
+    pub fn is_hung(&self) -> bool {
+        self.hung.load(Ordering::SeqCst)
+    }
+}
+
+impl Drop for Context {
+    fn drop(&mut self) {
+        if self.is_hung() {
+            return;
+        }
+        // SAFETY: every wrapper holds an Arc<Context>, so none is alive now;
+        // waiting idle guarantees the GPU no longer uses their memory.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            if let Ok(mut guard) = self.allocator.lock() {
+                drop(guard.take());
+            }
+            self.device.destroy_device(None);
+            if let Some((loader, messenger)) = self.debug.take() {
+                loader.destroy_debug_utils_messenger(messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}

@@ -1,0 +1,12 @@
+//! Vulkan, one concern per file. Every wrapper owns its objects and holds
+//! the [`Context`], so the device outlives them all.
+
+mod buffer;
+mod context;
+mod pipeline;
+mod submit;
+
+pub use buffer::Buffer;
+pub use context::{Context, ContextOptions, DeviceInfo, list_devices};
+pub use pipeline::ComputePipeline;
+pub use submit::{GpuError, Submitter};

@@ -1,0 +1,153 @@
+//! Compute pipelines over storage buffers, specialised by constants.
+
+use std::sync::Arc;
+
+use anyhow::{Context as _, Result, bail};
+use ash::vk;
+
+use super::{Buffer, Context};
+
+/// A compute pipeline whose bindings are storage buffers `0..bindings`, with
+/// a push-constant block of `push_constant_bytes`, and one descriptor set.
+pub struct ComputePipeline {
+    ctx: Arc<Context>,
+    pub pipeline: vk::Pipeline,
+    pub layout: vk::PipelineLayout,
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    pub set: vk::DescriptorSet,
+    bindings: u32,
+}
+
+impl ComputePipeline {
+    /// Builds the pipeline from SPIR-V, specialising `(constant_id, value)`
+    /// pairs: the driver removes the code paths they rule out.
+    pub fn new(
+        ctx: &Arc<Context>,
+        spirv: &[u8],
+        bindings: u32,
+        push_constant_bytes: u32,
+        specialization: &[(u32, u32)],
+    ) -> Result<ComputePipeline> {
+        let device = &ctx.device;
+        let code: Vec<u32> = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).context("reading SPIR-V")?;
+        let module_info = vk::ShaderModuleCreateInfo::default().code(&code);
+        // SAFETY: valid SPIR-V built by build.rs.
+        let module = unsafe { device.create_shader_module(&module_info, None) }.context("creating shader module")?;
+
+        let layout_bindings: Vec<_> = (0..bindings)
+            .map(|b| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let mut this = ComputePipeline {
+            ctx: Arc::clone(ctx),
+            pipeline: vk::Pipeline::null(),
+            layout: vk::PipelineLayout::null(),
+            set_layout: vk::DescriptorSetLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            bindings,
+        };
+        // From here on, `this` owns whatever was created and Drop cleans up.
+        let result = (|| -> Result<()> {
+            // SAFETY (whole block): create infos reference live locals only.
+            unsafe {
+                this.set_layout = device
+                    .create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings), None)
+                    .context("creating descriptor set layout")?;
+                let ranges = [vk::PushConstantRange::default()
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                    .offset(0)
+                    .size(push_constant_bytes)];
+                let set_layouts = [this.set_layout];
+                let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+                if push_constant_bytes > 0 {
+                    layout_info = layout_info.push_constant_ranges(&ranges);
+                }
+                this.layout = device.create_pipeline_layout(&layout_info, None).context("creating pipeline layout")?;
+
+                let entries: Vec<_> = specialization
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &(id, _))| vk::SpecializationMapEntry { constant_id: id, offset: 4 * i as u32, size: 4 })
+                    .collect();
+                let data: Vec<u8> = specialization.iter().flat_map(|&(_, v)| v.to_ne_bytes()).collect();
+                let spec = vk::SpecializationInfo::default().map_entries(&entries).data(&data);
+                let stage = vk::PipelineShaderStageCreateInfo::default()
+                    .stage(vk::ShaderStageFlags::COMPUTE)
+                    .module(module)
+                    .name(c"main")
+                    .specialization_info(&spec);
+                let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(this.layout)];
+                this.pipeline = device
+                    .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
+                    .map_err(|(_, e)| e)
+                    .context("creating compute pipeline")?[0];
+
+                let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: bindings.max(1) }];
+                this.pool = device
+                    .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None)
+                    .context("creating descriptor pool")?;
+                let set_layouts = [this.set_layout];
+                this.set = device
+                    .allocate_descriptor_sets(
+                        &vk::DescriptorSetAllocateInfo::default().descriptor_pool(this.pool).set_layouts(&set_layouts),
+                    )
+                    .context("allocating descriptor set")?[0];
+            }
+            Ok(())
+        })();
+        // SAFETY: the module is only needed during pipeline creation.
+        unsafe { device.destroy_shader_module(module, None) };
+        result?;
+        Ok(this)
+    }
+
+    /// Points every binding at its buffer (binding i gets `buffers[i]`).
+    pub fn bind(&self, buffers: &[&Buffer]) -> Result<()> {
+        if buffers.len() != self.bindings as usize {
+            bail!("pipeline has {} bindings, {} buffers given", self.bindings, buffers.len());
+        }
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+            .iter()
+            .map(|b| [vk::DescriptorBufferInfo { buffer: b.handle, offset: 0, range: vk::WHOLE_SIZE }])
+            .collect();
+        let writes: Vec<_> = infos
+            .iter()
+            .enumerate()
+            .map(|(i, info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(self.set)
+                    .dst_binding(i as u32)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(info)
+            })
+            .collect();
+        // SAFETY: the set is not in use by pending work when rebinding (the
+        // renderer waits for each submission before changing buffers).
+        unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
+        Ok(())
+    }
+}
+
+impl Drop for ComputePipeline {
+    fn drop(&mut self) {
+        if self.ctx.is_hung() {
+            return;
+        }
+        // SAFETY: no pending work uses these objects (see Buffer's Drop);
+        // destroying null handles is a no-op.
+        unsafe {
+            let d = &self.ctx.device;
+            d.destroy_pipeline(self.pipeline, None);
+            d.destroy_descriptor_pool(self.pool, None);
+            d.destroy_pipeline_layout(self.layout, None);
+            d.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}

@@ -1,0 +1,20 @@
+//! isomarch: ray marching of implicit surfaces (point primitives with
+//! compact and Gaussian kernels, planes; sums within groups, max across
+//! groups) on Vulkan compute, after Aydinlilar & Zanni, *Forward inclusion
+//! functions for ray-tracing implicit surfaces* (C&G 2023).
+//!
+//! Data flows one way: scene file → [`scene::Scene`] → GPU buffers and a
+//! specialised pipeline ([`render::Renderer`]) → per-ray results →
+//! images and statistics ([`output`]). [`field`] is the f64 reference of the
+//! same maths, the oracle of the tests and benchmarks.
+
+pub mod bench;
+pub mod field;
+pub mod gpu;
+pub mod layout;
+pub mod method;
+pub mod output;
+pub mod render;
+pub mod scene;
+
+pub use method::Method;

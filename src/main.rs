@@ -1,0 +1,235 @@
+//! The `isomarch` command line: parse, call the library, map errors to an
+//! exit code.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use anyhow::{Context as _, Result, bail};
+use clap::{Args, Parser, Subcommand};
+
+use isomarch::gpu::{Context, ContextOptions, GpuError, list_devices};
+use isomarch::method::{Method, parse_list};
+use isomarch::output::{Aov, write_atomic};
+use isomarch::render::offscreen::{RenderJob, render_to_files};
+use isomarch::scene::Scene;
+use isomarch::bench;
+
+#[derive(Parser)]
+#[command(name = "isomarch", version, about = "Ray marching of implicit surfaces on Vulkan compute", long_about = "\
+Renders implicit surfaces made of point primitives (compact and Gaussian kernels) and planes, summed within groups and \
+combined by max across groups, with the marchers of Aydinlilar & Zanni (2023) running as Vulkan compute shaders. \
+Scene files are RON: see docs/scene-format.md.")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Args)]
+struct GpuArgs {
+    /// Vulkan device: index or name substring from `isomarch info` (default: discrete, then integrated, then CPU).
+    #[arg(long)]
+    device: Option<String>,
+    /// Give up when the GPU has not finished within this many seconds.
+    #[arg(long, default_value_t = 600.0, value_name = "SECONDS")]
+    timeout: f64,
+    /// Enable the Vulkan validation layer (also ISOMARCH_VALIDATION=1).
+    #[arg(long)]
+    validation: bool,
+}
+
+#[derive(Args)]
+struct MarchArgs {
+    /// Marcher: sphere or segment (default: the scene's marching.method).
+    #[arg(long)]
+    method: Option<String>,
+    /// Override the scene's minimum step (scene units).
+    #[arg(long)]
+    min_step: Option<f64>,
+    /// Override the scene's step budget per ray.
+    #[arg(long)]
+    max_steps: Option<u32>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene offscreen to PNG, with optional heatmap, AOVs and statistics.
+    Render {
+        /// Scene file (RON).
+        scene: PathBuf,
+        /// Shaded image (PNG).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Image size as WxH, overriding the scene's camera.resolution.
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        /// Also write a step-count heatmap PNG with a legend.
+        #[arg(long, value_name = "PNG")]
+        heatmap: Option<PathBuf>,
+        /// Fix the heatmap scale (the paper's Figure 12 uses 75); default: the image's maximum.
+        #[arg(long, value_name = "N")]
+        steps_max: Option<u32>,
+        /// Per-pixel outputs written as 32-bit float OpenEXR.
+        #[arg(long, value_enum, value_delimiter = ',')]
+        aov: Vec<Aov>,
+        /// Where to write the AOVs (default: the output path with .exr).
+        #[arg(long, value_name = "EXR")]
+        aov_output: Option<PathBuf>,
+        /// Write statistics (steps, evaluations, GPU time) as JSON.
+        #[arg(long, value_name = "JSON")]
+        stats: Option<PathBuf>,
+        #[command(flatten)]
+        march: MarchArgs,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
+    /// List Vulkan devices and the limits that matter.
+    Info,
+    /// Compare marchers on the benchmark protocol (BENCHMARKS.md): the same seeded rays for each.
+    Bench {
+        /// Scene file (RON).
+        scene: PathBuf,
+        /// Comma-separated marchers; ratios are to the first.
+        #[arg(long, default_value = "segment,sphere")]
+        methods: String,
+        /// Number of rays.
+        #[arg(long, default_value_t = bench::DEFAULT_RAYS)]
+        rays: usize,
+        /// Seed of the ray set.
+        #[arg(long, default_value_t = bench::DEFAULT_SEED)]
+        seed: u64,
+        /// Also write the report as JSON.
+        #[arg(long, value_name = "FILE")]
+        json: Option<PathBuf>,
+        #[command(flatten)]
+        march: MarchArgs,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WxH such as 256x256, got {s:?}"))?;
+    let parse = |v: &str| v.trim().parse::<u32>().ok().filter(|&v| (1..=16384).contains(&v));
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok((w, h)),
+        _ => Err(format!("expected WxH with each side in 1..=16384, got {s:?}")),
+    }
+}
+
+fn load_scene(path: &PathBuf, march: &MarchArgs) -> Result<Scene> {
+    let mut scene = Scene::load(path)?;
+    if let Some(m) = &march.method {
+        scene.marching.method = m.parse::<Method>().map_err(anyhow::Error::msg).context("--method")?;
+    }
+    if let Some(s) = march.min_step {
+        if !(s.is_finite() && s > 0.0) {
+            bail!("--min-step must be positive and finite, got {s}");
+        }
+        scene.marching.min_step = s;
+    }
+    if let Some(n) = march.max_steps {
+        if n == 0 {
+            bail!("--max-steps must be at least 1");
+        }
+        scene.marching.max_steps = n;
+    }
+    Ok(scene)
+}
+
+fn open(gpu: &GpuArgs) -> Result<(std::sync::Arc<Context>, Duration)> {
+    if !(gpu.timeout.is_finite() && gpu.timeout > 0.0) {
+        bail!("--timeout must be a positive number of seconds, got {}", gpu.timeout);
+    }
+    let ctx = Context::new(&ContextOptions { validation: gpu.validation, device: gpu.device.clone() })?;
+    Ok((ctx, Duration::from_secs_f64(gpu.timeout)))
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Info => {
+            for d in list_devices()? {
+                println!("{}: {} ({}, Vulkan {})", d.index, d.name, d.kind, d.api_version);
+                println!("    max storage buffer:       {} MiB", d.max_storage_buffer_range >> 20);
+                println!("    max workgroup invocations: {}", d.max_compute_workgroup_invocations);
+                println!("    max workgroup count:      {:?}", d.max_compute_workgroup_count);
+                println!("    timestamps:               {} ({} ns/tick)", d.timestamps, d.timestamp_period_ns);
+                println!("    memory heaps:             {:?} MiB", d.memory_heaps_mib);
+            }
+            Ok(())
+        }
+        Command::Render { scene, output, size, heatmap, steps_max, aov, aov_output, stats, march, gpu } => {
+            let scene = load_scene(&scene, &march)?;
+            let (width, height) = size.unwrap_or((scene.camera.width, scene.camera.height));
+            let (ctx, timeout) = open(&gpu)?;
+            let job = RenderJob {
+                method: scene.marching.method,
+                scene,
+                width,
+                height,
+                output,
+                heatmap,
+                steps_max,
+                aovs: aov,
+                aov_output,
+                stats,
+                timeout,
+            };
+            let s = render_to_files(&ctx, &job)?;
+            eprintln!(
+                "{}: {}x{} with {} on {}: {:.2} steps/ray, {:.1} evals/ray, hit rate {:.3}{}",
+                job.output.display(),
+                s.width,
+                s.height,
+                s.method,
+                s.device,
+                s.march.steps_per_ray,
+                s.march.evals_per_ray,
+                s.march.hit_rate,
+                s.march.gpu_ms.map_or(String::new(), |ms| format!(", GPU {ms:.1} ms"))
+            );
+            check_validation(&ctx)
+        }
+        Command::Bench { scene, methods, rays, seed, json, march, gpu } => {
+            let methods = parse_list(&methods).map_err(anyhow::Error::msg).context("--methods")?;
+            if rays == 0 {
+                bail!("--rays must be at least 1");
+            }
+            let scene = load_scene(&scene, &march)?;
+            let (ctx, timeout) = open(&gpu)?;
+            let report = bench::run(&ctx, &scene, &methods, rays, seed, timeout)?;
+            print!("{}", bench::markdown(&report));
+            if let Some(path) = json {
+                write_atomic(&path, &serde_json::to_vec_pretty(&report)?)?;
+            }
+            check_validation(&ctx)
+        }
+    }
+}
+
+/// With validation on, any message is a failure worth an exit code.
+fn check_validation(ctx: &Context) -> Result<()> {
+    let messages = ctx.validation_messages();
+    if messages.is_empty() {
+        return Ok(());
+    }
+    for m in &messages {
+        eprintln!("validation: {m}");
+    }
+    bail!("{} Vulkan validation message(s)", messages.len())
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            if e.downcast_ref::<GpuError>().is_some_and(|g| matches!(g, GpuError::DeadlineExceeded(_))) {
+                // The GPU may still run our work: exit now, freeing nothing.
+                std::process::exit(3);
+            }
+            ExitCode::FAILURE
+        }
+    }
+}

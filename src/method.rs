@@ -1,0 +1,59 @@
+//! The marchers isomarch implements, by name.
+
+use std::fmt;
+use std::str::FromStr;
+
+use crate::layout;
+
+/// A ray-marching method. Each is a specialization of the one march shader.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Method {
+    /// Sphere tracing with the global Lipschitz bound (Eq. 10).
+    Sphere,
+    /// Segment tracing (Galin et al. 2020), pinned in BENCHMARKS.md.
+    Segment,
+}
+
+impl Method {
+    pub const ALL: &'static [Method] = &[Method::Sphere, Method::Segment];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Sphere => "sphere",
+            Method::Segment => "segment",
+        }
+    }
+
+    /// The value of the `SC_METHOD` specialization constant.
+    pub fn shader_id(self) -> u32 {
+        match self {
+            Method::Sphere => layout::METHOD_SPHERE,
+            Method::Segment => layout::METHOD_SEGMENT,
+        }
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Method {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Method, String> {
+        Method::ALL.iter().copied().find(|m| m.name() == s).ok_or_else(|| {
+            let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+            format!("unknown method {s:?}; expected one of: {}", names.join(", "))
+        })
+    }
+}
+
+/// Parses a comma-separated method list such as `sphere,segment`.
+pub fn parse_list(s: &str) -> Result<Vec<Method>, String> {
+    let methods: Vec<Method> = s.split(',').map(str::trim).filter(|p| !p.is_empty()).map(str::parse).collect::<Result<_, _>>()?;
+    if methods.is_empty() {
+        return Err("no method given".into());
+    }
+    Ok(methods)
+}

@@ -1,0 +1,62 @@
+//! Step-count heatmaps with a legend (the paper's Figure 12 style).
+
+use font8x8::UnicodeFonts;
+use image::{Rgb, RgbImage};
+
+const LEGEND_HEIGHT: u32 = 26;
+const BAR_TOP: u32 = 4;
+const BAR_HEIGHT: u32 = 8;
+const TEXT_TOP: u32 = 15;
+
+fn color(fraction: f64) -> Rgb<u8> {
+    let c = colorous::VIRIDIS.eval_continuous(fraction.clamp(0.0, 1.0));
+    Rgb([c.r, c.g, c.b])
+}
+
+/// Draws `text` with an 8x8 bitmap font, left edge at `x`.
+fn draw_text(img: &mut RgbImage, x: i64, y: u32, text: &str) {
+    for (i, ch) in text.chars().enumerate() {
+        let Some(glyph) = font8x8::BASIC_FONTS.get(ch) else { continue };
+        for (row, bits) in glyph.iter().enumerate() {
+            for col in 0..8 {
+                let px = x + 8 * i as i64 + col;
+                let py = y + row as u32;
+                if bits >> col & 1 == 1 && px >= 0 && (px as u32) < img.width() && py < img.height() {
+                    img.put_pixel(px as u32, py, Rgb([235, 235, 235]));
+                }
+            }
+        }
+    }
+}
+
+/// Steps per pixel mapped through viridis on `[0, steps_max]` (values above
+/// clamp to the top colour), with a colour bar and its scale underneath.
+/// Without `steps_max` the scale is the image's own maximum.
+pub fn heatmap_image(width: u32, height: u32, steps: &[u32], steps_max: Option<u32>) -> RgbImage {
+    let max = steps_max.unwrap_or_else(|| steps.iter().copied().max().unwrap_or(1)).max(1);
+    let mut img = RgbImage::from_pixel(width, height + LEGEND_HEIGHT, Rgb([20, 20, 24]));
+    for y in 0..height {
+        for x in 0..width {
+            let s = steps[(y * width + x) as usize];
+            img.put_pixel(x, y, color(f64::from(s) / f64::from(max)));
+        }
+    }
+    let margin = 2u32.min(width / 4);
+    let bar = width.saturating_sub(2 * margin).max(1);
+    for x in 0..bar {
+        let c = color(f64::from(x) / f64::from(bar.saturating_sub(1).max(1)));
+        for y in 0..BAR_HEIGHT {
+            img.put_pixel(margin + x, height + BAR_TOP + y, c);
+        }
+    }
+    let top = format!("{}{max}", if steps_max.is_some() { ">=" } else { "" });
+    draw_text(&mut img, i64::from(margin), height + TEXT_TOP, "0");
+    let right = i64::from(margin + bar) - 8 * top.len() as i64;
+    draw_text(&mut img, right, height + TEXT_TOP, &top);
+    let label = "steps";
+    let mid = i64::from(width / 2) - 4 * label.len() as i64;
+    if mid > i64::from(margin) + 12 && mid + 8 * label.len() as i64 + 4 < right {
+        draw_text(&mut img, mid, height + TEXT_TOP, label);
+    }
+    img
+}

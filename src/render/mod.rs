@@ -1,0 +1,205 @@
+//! Marching rays on the GPU: scene upload, specialised pipelines, tiled
+//! dispatches with deadlines.
+
+pub mod offscreen;
+pub mod rays;
+
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Result, bail};
+
+use crate::field::Field;
+use crate::gpu::{Buffer, ComputePipeline, Context, Submitter};
+use crate::layout::{self, GpuGlobals, GpuLight, GpuPrimitive, GpuResult, GpuRay};
+use crate::method::Method;
+use crate::scene::{Kernel, Primitive, Scene};
+
+/// SPIR-V of the march kernel, built by build.rs.
+const MARCH_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march.spv"));
+
+/// Rays per dispatch: big images become many bounded dispatches.
+pub const TILE_RAYS: usize = 1 << 16;
+const WORKGROUP: usize = 64;
+
+/// Segment tracing grows its candidate segment to 1.5 times the last step
+/// (BENCHMARKS.md).
+pub const SEGMENT_GROWTH: f32 = 1.5;
+
+/// What the march of a batch of rays produced.
+pub struct MarchOutput {
+    pub results: Vec<GpuResult>,
+    /// GPU time from timestamp queries, summed over tiles (`None` when the
+    /// device has no timestamps).
+    pub gpu_ns: Option<f64>,
+}
+
+/// The scene's data on the GPU and one pipeline per method used so far.
+pub struct Renderer {
+    ctx: Arc<Context>,
+    scene: Scene,
+    globals: Buffer,
+    prims: Buffer,
+    lights: Buffer,
+    rays: Buffer,
+    results: Buffer,
+    pipelines: HashMap<Method, ComputePipeline>,
+    submitter: Submitter,
+    /// Give up when the GPU is not done by then.
+    pub timeout: Duration,
+    pub shade: bool,
+}
+
+/// The primitives in GPU layout, sorted by group.
+pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
+    let field = Field::new(scene);
+    let mut out = Vec::with_capacity(scene.primitive_count());
+    for (gi, (group, evals)) in scene.groups.iter().zip(&field.groups).enumerate() {
+        for (p, e) in group.iter().zip(evals) {
+            let k = e.kernel();
+            let (a, kind) = match *p {
+                Primitive::Point { center, kernel } => {
+                    let kind = match kernel {
+                        Kernel::Compact { .. } => layout::PRIM_COMPACT_POINT,
+                        Kernel::Gaussian { .. } => layout::PRIM_GAUSSIAN_POINT,
+                    };
+                    ([center.x as f32, center.y as f32, center.z as f32, 0.0], kind)
+                }
+                Primitive::Plane { normal, offset, .. } => {
+                    ([normal.x as f32, normal.y as f32, normal.z as f32, offset as f32], layout::PRIM_COMPACT_PLANE)
+                }
+            };
+            out.push(GpuPrimitive {
+                a,
+                b: [k.scale as f32, k.inv as f32, k.weight as f32, k.peak_distance as f32],
+                c: [k.peak_slope as f32, 0.0, 0.0, 0.0],
+                ids: [kind, gi as u32, 0, 0],
+            });
+        }
+    }
+    out
+}
+
+fn globals(scene: &Scene) -> GpuGlobals {
+    let rgb = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
+    GpuGlobals {
+        march: [
+            scene.iso as f32,
+            scene.marching.min_step as f32,
+            scene.refine_tolerance() as f32,
+            Field::new(scene).lipschitz() as f32,
+        ],
+        sizes: [
+            scene.primitive_count() as u32,
+            scene.groups.len() as u32,
+            scene.lights.len() as u32,
+            scene.marching.max_steps,
+        ],
+        tuning: [SEGMENT_GROWTH, 0.0, 0.0, 0.0],
+        background: rgb(scene.background),
+        surface: rgb(scene.surface),
+        ambient: rgb(scene.ambient),
+    }
+}
+
+/// Specialization constants for `scene` marched by `method`.
+pub fn specialization(scene: &Scene, method: Method, shade: bool) -> Vec<(u32, u32)> {
+    let has = |pred: fn(&Primitive) -> bool| u32::from(scene.primitives().any(pred));
+    let values = [
+        ("SC_METHOD", method.shader_id()),
+        ("SC_HAS_COMPACT_POINT", has(|p| matches!(p, Primitive::Point { kernel: Kernel::Compact { .. }, .. }))),
+        ("SC_HAS_GAUSSIAN_POINT", has(|p| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. }))),
+        ("SC_HAS_COMPACT_PLANE", has(|p| matches!(p, Primitive::Plane { .. }))),
+        ("SC_MULTI_GROUP", u32::from(scene.groups.len() > 1)),
+        ("SC_SHADE", u32::from(shade)),
+    ];
+    values
+        .iter()
+        .map(|(name, v)| {
+            let id = layout::SPEC_CONSTANTS.iter().find(|(_, n)| n == name).map(|(id, _)| *id);
+            (id.expect("every specialization constant is declared in layout.rs"), *v)
+        })
+        .collect()
+}
+
+impl Renderer {
+    /// Uploads `scene`. Fails with a one-line error when it does not fit.
+    pub fn new(ctx: &Arc<Context>, scene: &Scene) -> Result<Renderer> {
+        let limit = ctx.info.max_storage_buffer_range / size_of::<GpuPrimitive>() as u64;
+        if scene.primitive_count() as u64 > limit {
+            bail!(
+                "{}: groups: {} primitives, but {} holds at most {limit} in one storage buffer",
+                scene.source,
+                scene.primitive_count(),
+                ctx.info.name
+            );
+        }
+        let prims = gpu_primitives(scene);
+        let lights: Vec<GpuLight> = scene
+            .lights
+            .iter()
+            .map(|l| GpuLight {
+                dir: [l.direction.x as f32, l.direction.y as f32, l.direction.z as f32, 0.0],
+                color: [l.color.x as f32, l.color.y as f32, l.color.z as f32, 0.0],
+            })
+            .collect();
+        Ok(Renderer {
+            globals: Buffer::with_data(ctx, "globals", &[globals(scene)])?,
+            prims: Buffer::with_data(ctx, "primitives", &prims)?,
+            lights: Buffer::with_data(ctx, "lights", &lights)?,
+            rays: Buffer::new(ctx, "rays", (TILE_RAYS * size_of::<GpuRay>()) as u64)?,
+            results: Buffer::new(ctx, "results", (TILE_RAYS * size_of::<GpuResult>()) as u64)?,
+            pipelines: HashMap::new(),
+            submitter: Submitter::new(ctx)?,
+            ctx: Arc::clone(ctx),
+            scene: scene.clone(),
+            timeout: Duration::from_secs(600),
+            shade: true,
+        })
+    }
+
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    fn pipeline(&mut self, method: Method) -> Result<&ComputePipeline> {
+        if !self.pipelines.contains_key(&method) {
+            let spec = specialization(&self.scene, method, self.shade);
+            let p = ComputePipeline::new(&self.ctx, MARCH_SPV, 5, 4, &spec)?;
+            p.bind(&[&self.globals, &self.prims, &self.lights, &self.rays, &self.results])?;
+            self.pipelines.insert(method, p);
+        }
+        Ok(&self.pipelines[&method])
+    }
+
+    /// Marches `rays` with `method`, one tile per submission, all within
+    /// `self.timeout`. `progress` gets the number of rays done after each tile.
+    pub fn march(&mut self, method: Method, rays: &[GpuRay], mut progress: impl FnMut(usize)) -> Result<MarchOutput> {
+        let deadline = Instant::now() + self.timeout;
+        self.pipeline(method)?;
+        let mut results = Vec::with_capacity(rays.len());
+        let mut gpu_ns = Some(0.0);
+        for tile in rays.chunks(TILE_RAYS) {
+            self.rays.write(0, tile)?;
+            let pipeline = &self.pipelines[&method];
+            let (handle, layout, set) = (pipeline.pipeline, pipeline.layout, pipeline.set);
+            let count = tile.len() as u32;
+            let groups = tile.len().div_ceil(WORKGROUP) as u32;
+            let ns = self.submitter.run(deadline, self.timeout, |d, cmd| {
+                // SAFETY: the pipeline, its layout and set are alive and
+                // bound to buffers sized for a full tile.
+                unsafe {
+                    d.cmd_bind_pipeline(cmd, ash::vk::PipelineBindPoint::COMPUTE, handle);
+                    d.cmd_bind_descriptor_sets(cmd, ash::vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
+                    d.cmd_push_constants(cmd, layout, ash::vk::ShaderStageFlags::COMPUTE, 0, &count.to_ne_bytes());
+                    d.cmd_dispatch(cmd, groups, 1, 1);
+                }
+            })?;
+            gpu_ns = gpu_ns.zip(ns).map(|(a, b)| a + b);
+            results.extend(self.results.read::<GpuResult>(0, tile.len())?);
+            progress(results.len());
+        }
+        Ok(MarchOutput { results, gpu_ns })
+    }
+}

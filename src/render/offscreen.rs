@@ -1,0 +1,84 @@
+//! Offscreen frames: march camera rays, then write the requested files.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Result;
+use serde::Serialize;
+
+use super::Renderer;
+use super::rays::camera_rays;
+use crate::gpu::Context;
+use crate::method::Method;
+use crate::output::{self, Aov, Frame, MarchStats};
+use crate::scene::Scene;
+
+/// What to render and where to put it.
+#[derive(Clone, Debug)]
+pub struct RenderJob {
+    pub scene: Scene,
+    pub method: Method,
+    pub width: u32,
+    pub height: u32,
+    /// The shaded PNG.
+    pub output: PathBuf,
+    pub heatmap: Option<PathBuf>,
+    pub steps_max: Option<u32>,
+    pub aovs: Vec<Aov>,
+    pub aov_output: Option<PathBuf>,
+    pub stats: Option<PathBuf>,
+    pub timeout: Duration,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct RenderStats {
+    pub scene: String,
+    pub method: String,
+    pub device: String,
+    pub width: u32,
+    pub height: u32,
+    #[serde(flatten)]
+    pub march: MarchStats,
+}
+
+/// Marches the job's camera rays and returns the frame.
+pub fn render_frame(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Frame, MarchStats)> {
+    let mut renderer = Renderer::new(ctx, &job.scene)?;
+    renderer.timeout = job.timeout;
+    let (rays, pixels) = camera_rays(&job.scene.camera, job.width, job.height, &job.scene.bounds);
+    let out = renderer.march(job.method, &rays, |_| {})?;
+    let counted = out.results.iter().zip(&pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| r);
+    let stats = MarchStats::of(counted, out.gpu_ns);
+    Ok((Frame::from_results(job.width, job.height, &out.results, &pixels), stats))
+}
+
+/// Renders and writes every requested file. All files are encoded before
+/// the first is written, and each is written atomically.
+pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStats> {
+    let (frame, march) = render_frame(ctx, job)?;
+    let stats = RenderStats {
+        scene: job.scene.source.clone(),
+        method: job.method.to_string(),
+        device: ctx.info.name.clone(),
+        width: job.width,
+        height: job.height,
+        march,
+    };
+    let mut files = vec![(job.output.clone(), output::png_bytes(&frame.shaded())?)];
+    if let Some(path) = &job.heatmap {
+        let img = output::heatmap_image(frame.width, frame.height, &frame.steps(), job.steps_max);
+        files.push((path.clone(), output::png_bytes(&img)?));
+    }
+    if !job.aovs.is_empty() {
+        let path = job.aov_output.clone().unwrap_or_else(|| job.output.with_extension("exr"));
+        files.push((path, output::exr_bytes(&frame, &job.aovs)?));
+    }
+    if let Some(path) = &job.stats {
+        files.push((path.clone(), serde_json::to_vec_pretty(&stats)?));
+    }
+    for (path, bytes) in files {
+        output::write_atomic(&path, &bytes)?;
+    }
+    Ok(stats)
+}

@@ -1,0 +1,161 @@
+//! The scene file format as written by users (RON). Unknown fields are
+//! errors; every value is range-checked by [`super::validate`].
+
+use serde::{Deserialize, Serialize};
+
+/// A whole scene file. See `docs/scene-format.md`.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, rename = "Scene")]
+pub struct SceneFile {
+    pub camera: CameraFile,
+    /// Background colour, linear RGB in [0, 1].
+    #[serde(default = "default_background")]
+    pub background: [f64; 3],
+    /// Directional lights; an empty list gets one default key light.
+    #[serde(default)]
+    pub lights: Vec<LightFile>,
+    /// Ambient light, linear RGB.
+    #[serde(default = "default_ambient")]
+    pub ambient: [f64; 3],
+    /// Surface colour, linear RGB in [0, 1].
+    #[serde(default = "default_surface")]
+    pub surface: [f64; 3],
+    /// The iso value: the surface is where the field equals it.
+    pub iso: f64,
+    #[serde(default)]
+    pub marching: MarchingFile,
+    /// Explicit scene bounds; required when the scene has a plane.
+    #[serde(default)]
+    pub bounds: Option<BoundsFile>,
+    /// Groups of primitives: fields are summed within a group and groups are
+    /// combined by max (Eq. 20).
+    pub groups: Vec<GroupFile>,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraFile {
+    pub eye: [f64; 3],
+    pub target: [f64; 3],
+    #[serde(default = "default_up")]
+    pub up: [f64; 3],
+    /// Vertical field of view in degrees, in (0, 180).
+    #[serde(default = "default_fov")]
+    pub fov_y: f64,
+    /// Image width and height in pixels.
+    #[serde(default = "default_resolution")]
+    pub resolution: (u32, u32),
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightFile {
+    /// Direction towards the light (need not be unit).
+    pub direction: [f64; 3],
+    #[serde(default = "default_light_color")]
+    pub color: [f64; 3],
+    #[serde(default = "default_intensity")]
+    pub intensity: f64,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MarchingFile {
+    /// The marcher when the command line does not choose one.
+    #[serde(default = "default_method")]
+    pub method: String,
+    /// Minimum step in scene units (BENCHMARKS.md uses 0.1).
+    #[serde(default = "default_min_step")]
+    pub min_step: f64,
+    /// Step budget per ray.
+    #[serde(default = "default_max_steps")]
+    pub max_steps: u32,
+}
+
+impl Default for MarchingFile {
+    fn default() -> Self {
+        MarchingFile { method: default_method(), min_step: default_min_step(), max_steps: default_max_steps() }
+    }
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundsFile {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct GroupFile {
+    pub primitives: Vec<PrimitiveFile>,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub enum PrimitiveFile {
+    /// A point primitive: the kernel of the distance to `center`.
+    Point { center: [f64; 3], kernel: KernelFile },
+    /// The compact kernel of the unsigned distance to the plane
+    /// `normal · p = offset`: a slab of half-width `radius`.
+    Plane {
+        normal: [f64; 3],
+        offset: f64,
+        radius: f64,
+        #[serde(default)]
+        weight: Option<f64>,
+    },
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub enum KernelFile {
+    /// `weight · (1 - d²/radius²)³` inside the support radius, 0 outside.
+    Compact {
+        radius: f64,
+        #[serde(default)]
+        weight: Option<f64>,
+    },
+    /// `weight · exp(-s (d/r)²)`; the weight defaults to `iso · e^s`, which
+    /// puts an isolated blob's surface at distance `r`.
+    Gaussian {
+        r: f64,
+        s: f64,
+        #[serde(default)]
+        weight: Option<f64>,
+    },
+}
+
+fn default_background() -> [f64; 3] {
+    [0.05, 0.06, 0.08]
+}
+fn default_ambient() -> [f64; 3] {
+    [0.12, 0.12, 0.14]
+}
+fn default_surface() -> [f64; 3] {
+    [0.85, 0.55, 0.35]
+}
+fn default_up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f64 {
+    40.0
+}
+fn default_resolution() -> (u32, u32) {
+    (256, 256)
+}
+fn default_light_color() -> [f64; 3] {
+    [1.0, 1.0, 1.0]
+}
+fn default_intensity() -> f64 {
+    1.0
+}
+fn default_method() -> String {
+    "segment".into()
+}
+fn default_min_step() -> f64 {
+    0.01
+}
+fn default_max_steps() -> u32 {
+    1000
+}

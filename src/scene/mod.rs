@@ -1,0 +1,351 @@
+//! Scenes: the RON file format, validation, and the validated scene that the
+//! renderer and the f64 reference both read.
+
+pub mod file;
+
+use std::path::Path;
+
+use glam::DVec3;
+
+pub use file::SceneFile;
+
+use crate::method::Method;
+
+/// Fraction of the iso value below which a Gaussian kernel counts as zero
+/// for bounding the scene (the kernel itself is never truncated).
+pub const GAUSSIAN_BOUNDS_FRACTION: f64 = 1e-3;
+
+/// A scene problem, one line: file, field, what is allowed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{file}: {field}: {message}")]
+pub struct SceneError {
+    pub file: String,
+    pub field: String,
+    pub message: String,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub eye: DVec3,
+    pub target: DVec3,
+    pub up: DVec3,
+    pub fov_y_deg: f64,
+    pub width: u32,
+    pub height: u32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    /// Unit direction towards the light.
+    pub direction: DVec3,
+    /// Colour times intensity.
+    pub color: DVec3,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Marching {
+    pub method: Method,
+    pub min_step: f64,
+    pub max_steps: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Kernel {
+    /// `weight · (1 - d²/radius²)³` for `d < radius`, else 0 (Eq. 7, PAPER-NOTES.md).
+    Compact { radius: f64, weight: f64 },
+    /// `weight · exp(-s d²/r²)` (Eq. 6).
+    Gaussian { r: f64, s: f64, weight: f64 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Primitive {
+    Point { center: DVec3, kernel: Kernel },
+    /// Compact kernel of the distance to the plane `normal · p = offset`.
+    Plane { normal: DVec3, offset: f64, radius: f64, weight: f64 },
+}
+
+/// Axis-aligned box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: DVec3,
+    pub max: DVec3,
+}
+
+impl Aabb {
+    pub fn empty() -> Aabb {
+        Aabb { min: DVec3::splat(f64::INFINITY), max: DVec3::splat(f64::NEG_INFINITY) }
+    }
+    pub fn union(self, o: Aabb) -> Aabb {
+        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+    pub fn center(&self) -> DVec3 {
+        0.5 * (self.min + self.max)
+    }
+    pub fn diagonal(&self) -> f64 {
+        (self.max - self.min).length()
+    }
+    /// The parameter interval where `o + t d` is inside the box (slab test),
+    /// clipped to `t >= 0`; `None` when the ray misses.
+    pub fn clip_ray(&self, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
+        let inv = d.recip();
+        let a = (self.min - o) * inv;
+        let b = (self.max - o) * inv;
+        // NaN from 0 * inf (ray in a face plane) is dropped by max/min.
+        let t0 = a.min(b).max_element().max(0.0);
+        let t1 = a.max(b).min_element();
+        (t0 <= t1).then_some((t0, t1))
+    }
+}
+
+impl Kernel {
+    /// Distance beyond which the kernel is zero (compact) or below
+    /// `GAUSSIAN_BOUNDS_FRACTION · iso` (Gaussian).
+    pub fn cutoff(&self, iso: f64) -> f64 {
+        match *self {
+            Kernel::Compact { radius, .. } => radius,
+            Kernel::Gaussian { r, s, weight } => {
+                let ratio = weight / (GAUSSIAN_BOUNDS_FRACTION * iso);
+                if ratio <= 1.0 { 0.0 } else { r * (ratio.ln() / s).sqrt() }
+            }
+        }
+    }
+}
+
+/// A validated scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// Where it came from, for messages.
+    pub source: String,
+    pub camera: Camera,
+    pub background: DVec3,
+    pub ambient: DVec3,
+    pub surface: DVec3,
+    pub lights: Vec<Light>,
+    pub iso: f64,
+    pub marching: Marching,
+    /// Max over groups of sums over primitives (Eq. 20).
+    pub groups: Vec<Vec<Primitive>>,
+    /// Where rays are marched: explicit, or the union of the supports.
+    pub bounds: Aabb,
+}
+
+impl Scene {
+    /// Reads, parses and validates a scene file.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+            file: name.clone(),
+            field: "(file)".into(),
+            message: format!("cannot read: {e}"),
+        })?;
+        Scene::parse(&text, &name)
+    }
+
+    /// Parses and validates scene text; `name` labels errors.
+    pub fn parse(text: &str, name: &str) -> Result<Scene, SceneError> {
+        let file: SceneFile = ron::Options::default().from_str(text).map_err(|e| SceneError {
+            file: name.to_string(),
+            field: format!("line {}, column {}", e.span.start.line, e.span.start.col),
+            message: e.code.to_string(),
+        })?;
+        validate(&file, name)
+    }
+
+    pub fn primitive_count(&self) -> usize {
+        self.groups.iter().map(Vec::len).sum()
+    }
+
+    pub fn primitives(&self) -> impl Iterator<Item = &Primitive> {
+        self.groups.iter().flatten()
+    }
+
+    /// The smallest support radius or Gaussian scale: the length that sets
+    /// refinement tolerances.
+    pub fn min_radius(&self) -> f64 {
+        self.primitives()
+            .map(|p| match *p {
+                Primitive::Point { kernel: Kernel::Compact { radius, .. }, .. } => radius,
+                Primitive::Point { kernel: Kernel::Gaussian { r, .. }, .. } => r,
+                Primitive::Plane { radius, .. } => radius,
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Bisection tolerance for crossings: `1e-4 · R_min` (BENCHMARKS.md).
+    pub fn refine_tolerance(&self) -> f64 {
+        1e-4 * self.min_radius()
+    }
+}
+
+struct Checker<'a> {
+    file: &'a str,
+}
+
+impl Checker<'_> {
+    fn err(&self, field: impl Into<String>, message: impl Into<String>) -> SceneError {
+        SceneError { file: self.file.into(), field: field.into(), message: message.into() }
+    }
+    fn finite(&self, field: &str, v: f64) -> Result<f64, SceneError> {
+        if v.is_finite() { Ok(v) } else { Err(self.err(field, format!("must be a finite number, got {v}"))) }
+    }
+    fn positive(&self, field: &str, v: f64) -> Result<f64, SceneError> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.err(field, format!("must be positive and finite, got {v}")))
+        }
+    }
+    fn vec3(&self, field: &str, v: [f64; 3]) -> Result<DVec3, SceneError> {
+        for (i, c) in v.iter().enumerate() {
+            self.finite(&format!("{field}[{i}]"), *c)?;
+        }
+        Ok(DVec3::from_array(v))
+    }
+    fn color(&self, field: &str, v: [f64; 3]) -> Result<DVec3, SceneError> {
+        let c = self.vec3(field, v)?;
+        if c.min_element() < 0.0 {
+            return Err(self.err(field, format!("colour components must be >= 0, got {v:?}")));
+        }
+        Ok(c)
+    }
+    fn unit(&self, field: &str, v: [f64; 3]) -> Result<DVec3, SceneError> {
+        let d = self.vec3(field, v)?;
+        if d.length() < 1e-12 {
+            return Err(self.err(field, "must be a non-zero vector"));
+        }
+        Ok(d.normalize())
+    }
+    fn weight(&self, field: &str, w: Option<f64>, default: f64) -> Result<f64, SceneError> {
+        w.map_or(Ok(default), |w| self.positive(field, w))
+    }
+}
+
+/// Checks every value of a parsed file and resolves defaults.
+pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
+    let c = Checker { file: name };
+    let cam = &f.camera;
+    let eye = c.vec3("camera.eye", cam.eye)?;
+    let target = c.vec3("camera.target", cam.target)?;
+    if (target - eye).length() < 1e-12 {
+        return Err(c.err("camera.target", "must differ from camera.eye"));
+    }
+    let up = c.unit("camera.up", cam.up)?;
+    if (target - eye).normalize().cross(up).length() < 1e-9 {
+        return Err(c.err("camera.up", "must not be parallel to the viewing direction"));
+    }
+    let fov = c.finite("camera.fov_y", cam.fov_y)?;
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(c.err("camera.fov_y", format!("must be in (0, 180) degrees, got {fov}")));
+    }
+    let (w, h) = cam.resolution;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(c.err("camera.resolution", format!("must be 1..=16384 pixels each way, got ({w}, {h})")));
+    }
+    let iso = c.positive("iso", f.iso)?;
+    let method: Method = f
+        .marching
+        .method
+        .parse()
+        .map_err(|e: String| c.err("marching.method", e))?;
+    let min_step = c.positive("marching.min_step", f.marching.min_step)?;
+    if f.marching.max_steps == 0 {
+        return Err(c.err("marching.max_steps", "must be at least 1"));
+    }
+    let mut lights = Vec::new();
+    for (i, l) in f.lights.iter().enumerate() {
+        let direction = c.unit(&format!("lights[{i}].direction"), l.direction)?;
+        let color = c.color(&format!("lights[{i}].color"), l.color)?;
+        let intensity = c.finite(&format!("lights[{i}].intensity"), l.intensity)?;
+        if intensity < 0.0 {
+            return Err(c.err(format!("lights[{i}].intensity"), format!("must be >= 0, got {intensity}")));
+        }
+        lights.push(Light { direction, color: color * intensity });
+    }
+    if lights.is_empty() {
+        lights.push(Light { direction: DVec3::new(0.4, 0.8, 0.45).normalize(), color: DVec3::splat(0.9) });
+    }
+    if lights.len() > 8 {
+        return Err(c.err("lights", format!("at most 8 lights, got {}", lights.len())));
+    }
+
+    if f.groups.is_empty() {
+        return Err(c.err("groups", "the scene has no groups; give at least one group with one primitive"));
+    }
+    let mut groups = Vec::new();
+    let mut support = Aabb::empty();
+    let mut has_plane = false;
+    for (gi, g) in f.groups.iter().enumerate() {
+        if g.primitives.is_empty() {
+            return Err(c.err(format!("groups[{gi}].primitives"), "is empty; every group needs a primitive"));
+        }
+        let mut prims = Vec::new();
+        for (pi, p) in g.primitives.iter().enumerate() {
+            let at = format!("groups[{gi}].primitives[{pi}]");
+            let prim = match p {
+                file::PrimitiveFile::Point { center, kernel } => {
+                    let center = c.vec3(&format!("{at}.center"), *center)?;
+                    let kernel = match kernel {
+                        file::KernelFile::Compact { radius, weight } => {
+                            let radius = c.positive(&format!("{at}.kernel.radius"), *radius)?;
+                            let weight = c.weight(&format!("{at}.kernel.weight"), *weight, 1.0)?;
+                            Kernel::Compact { radius, weight }
+                        }
+                        file::KernelFile::Gaussian { r, s, weight } => {
+                            let r = c.positive(&format!("{at}.kernel.r"), *r)?;
+                            let s = c.positive(&format!("{at}.kernel.s"), *s)?;
+                            let default = iso * s.exp();
+                            if !default.is_finite() {
+                                return Err(c.err(format!("{at}.kernel.s"), format!("iso·e^s overflows for s = {s}; use s <= 700")));
+                            }
+                            let weight = c.weight(&format!("{at}.kernel.weight"), *weight, default)?;
+                            Kernel::Gaussian { r, s, weight }
+                        }
+                    };
+                    let reach = DVec3::splat(kernel.cutoff(iso));
+                    support = support.union(Aabb { min: center - reach, max: center + reach });
+                    Primitive::Point { center, kernel }
+                }
+                file::PrimitiveFile::Plane { normal, offset, radius, weight } => {
+                    has_plane = true;
+                    Primitive::Plane {
+                        normal: c.unit(&format!("{at}.normal"), *normal)?,
+                        offset: c.finite(&format!("{at}.offset"), *offset)?,
+                        radius: c.positive(&format!("{at}.radius"), *radius)?,
+                        weight: c.weight(&format!("{at}.weight"), *weight, 1.0)?,
+                    }
+                }
+            };
+            prims.push(prim);
+        }
+        groups.push(prims);
+    }
+    let bounds = match &f.bounds {
+        Some(b) => {
+            let min = c.vec3("bounds.min", b.min)?;
+            let max = c.vec3("bounds.max", b.max)?;
+            if !(min.cmplt(max).all()) {
+                return Err(c.err("bounds", format!("min must be below max on every axis, got {:?} and {:?}", b.min, b.max)));
+            }
+            Aabb { min, max }
+        }
+        None if has_plane => {
+            return Err(c.err("bounds", "a scene with a plane needs explicit bounds (the plane is infinite)"));
+        }
+        None => support,
+    };
+    if !(bounds.min.cmplt(bounds.max).all()) {
+        return Err(c.err("groups", "no primitive reaches the iso value, so the scene is empty"));
+    }
+    Ok(Scene {
+        source: name.to_string(),
+        camera: Camera { eye, target, up, fov_y_deg: fov, width: w, height: h },
+        background: c.color("background", f.background)?,
+        ambient: c.color("ambient", f.ambient)?,
+        surface: c.color("surface", f.surface)?,
+        lights,
+        iso,
+        marching: Marching { method, min_step, max_steps: f.marching.max_steps },
+        groups,
+        bounds,
+    })
+}

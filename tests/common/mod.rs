@@ -1,0 +1,118 @@
+//! Fixtures shared by the integration tests.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use glam::DVec3;
+use isomarch::gpu::{Context, ContextOptions};
+use isomarch::scene::{Aabb, Camera, Kernel, Light, Marching, Primitive, Scene};
+use isomarch::Method;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+/// The GPU with validation on. Fails (never skips) when Vulkan is missing.
+pub fn gpu() -> Arc<Context> {
+    match Context::new(&ContextOptions { validation: true, device: None }) {
+        Ok(ctx) => ctx,
+        Err(e) => panic!(
+            "these tests need Vulkan with the validation layer (run them through `bash scripts/test.sh`, which installs lavapipe): {e:#}"
+        ),
+    }
+}
+
+/// Fails the test on any validation message.
+pub fn assert_no_validation(ctx: &Context) {
+    let messages = ctx.validation_messages();
+    assert!(messages.is_empty(), "validation messages:\n{}", messages.join("\n"));
+}
+
+pub fn repo_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `../shared` beside the repository (the paper, benchmarks).
+pub fn shared_dir() -> PathBuf {
+    let dir = repo_root().join("..").join("shared");
+    assert!(dir.is_dir(), "{} is missing: the benchmark CSVs live there", dir.display());
+    dir
+}
+
+pub fn bin() -> PathBuf {
+    PathBuf::from(env!("CARGO_BIN_EXE_isomarch"))
+}
+
+/// A fresh, empty scratch folder for one test.
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("isomarch-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+pub fn compact(center: DVec3, radius: f64) -> Primitive {
+    Primitive::Point { center, kernel: Kernel::Compact { radius, weight: 1.0 } }
+}
+
+/// A Gaussian with the default weight `iso·e^s`.
+pub fn gaussian(center: DVec3, r: f64, s: f64, iso: f64) -> Primitive {
+    Primitive::Point { center, kernel: Kernel::Gaussian { r, s, weight: iso * s.exp() } }
+}
+
+/// A scene around `groups`, bounds from the supports (as the loader does),
+/// camera looking down -z at the origin.
+pub fn scene(groups: Vec<Vec<Primitive>>, iso: f64, method: Method, min_step: f64) -> Scene {
+    let mut bounds = Aabb::empty();
+    for p in groups.iter().flatten() {
+        if let Primitive::Point { center, kernel } = p {
+            let reach = DVec3::splat(kernel.cutoff(iso));
+            bounds = bounds.union(Aabb { min: *center - reach, max: *center + reach });
+        }
+    }
+    let mut s = Scene {
+        source: "test scene".into(),
+        camera: Camera {
+            eye: DVec3::new(0.0, 0.0, 10.0),
+            target: DVec3::ZERO,
+            up: DVec3::Y,
+            fov_y_deg: 40.0,
+            width: 64,
+            height: 64,
+        },
+        background: DVec3::splat(0.05),
+        ambient: DVec3::splat(0.1),
+        surface: DVec3::new(0.8, 0.5, 0.3),
+        lights: vec![Light { direction: DVec3::new(0.4, 0.8, 0.45).normalize(), color: DVec3::ONE }],
+        iso,
+        marching: Marching { method, min_step, max_steps: 100_000 },
+        groups,
+        bounds,
+    };
+    s.marching.min_step = min_step;
+    s
+}
+
+/// A seeded random scene: 2 to 3 groups when `max_of_groups`, else one;
+/// 3 to 8 blobs each, compact and Gaussian mixed, in a 6-unit cube.
+pub fn random_scene(seed: u64, max_of_groups: bool, method: Method) -> Scene {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let iso = 0.5;
+    let groups = if max_of_groups { rng.random_range(2..=3) } else { 1 };
+    let groups = (0..groups)
+        .map(|_| {
+            (0..rng.random_range(3..=8))
+                .map(|_| {
+                    let c = DVec3::new(rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0));
+                    if rng.random_bool(0.5) {
+                        compact(c, rng.random_range(1.0..2.5))
+                    } else {
+                        gaussian(c, rng.random_range(0.6..1.4), rng.random_range(1.0..4.0), iso)
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let mut s = scene(groups, iso, method, 1.0);
+    s.marching.min_step = 1e-4 * s.min_radius();
+    s
+}

@@ -1,0 +1,133 @@
+//! The marchers on lavapipe against closed forms and the f64 reference.
+
+mod common;
+
+use common::*;
+use glam::DVec3;
+use isomarch::bench::{accuracy, reference_hits};
+use isomarch::layout::{FLAG_HIT, GpuResult};
+use isomarch::output::MarchStats;
+use isomarch::render::Renderer;
+use isomarch::render::rays::{Ray, camera_rays, protocol_rays};
+use isomarch::scene::Scene;
+use isomarch::Method;
+
+/// Hit distances of `scene`'s camera rays (64x64) with `method`.
+fn march_camera(ctx: &std::sync::Arc<isomarch::gpu::Context>, scene: &Scene, method: Method) -> (Vec<Ray>, Vec<GpuResult>) {
+    let (rays, pixels) = camera_rays(&scene.camera, 64, 64, &scene.bounds);
+    let mut r = Renderer::new(ctx, scene).unwrap();
+    let out = r.march(method, &rays, |_| {}).unwrap();
+    rays.iter()
+        .zip(out.results)
+        .zip(pixels)
+        .filter(|(_, p)| p.is_some())
+        .map(|((ray, res), _)| (Ray::from_gpu(ray), res))
+        .unzip()
+}
+
+/// Checks every camera ray against the sphere of `radius` at the origin:
+/// hits within `tol` of the analytic distance, misses where the ray passes
+/// clear of it. Rays within 1e-3 of tangency may go either way.
+fn assert_sphere(scene: &Scene, radius: f64, tol: f64) {
+    let ctx = gpu();
+    for &method in Method::ALL {
+        let (rays, results) = march_camera(&ctx, scene, method);
+        let mut hits = 0;
+        for (ray, res) in rays.iter().zip(&results) {
+            let b = ray.o.dot(ray.d);
+            let closest = (ray.o - b * ray.d).length();
+            let hit = res.counts[3] & FLAG_HIT != 0;
+            if (closest - radius).abs() < 1e-3 * radius {
+                continue;
+            }
+            if closest < radius {
+                let t = -b - (radius * radius - closest * closest).sqrt();
+                assert!(hit, "{method}: missed the sphere (closest approach {closest}, radius {radius})");
+                let err = f64::from(res.hit[3]) - t;
+                assert!(err.abs() <= tol, "{method}: hit at {} but the sphere is at {t} (error {err:e} > {tol:e})", res.hit[3]);
+                let n = DVec3::new(res.hit[0].into(), res.hit[1].into(), res.hit[2].into());
+                let expected = (ray.o + t * ray.d).normalize();
+                assert!(n.dot(expected) > 0.999, "{method}: normal {n} differs from {expected}");
+                hits += 1;
+            } else {
+                assert!(!hit, "{method}: hit at {} but the ray passes the sphere at {closest}", res.hit[3]);
+            }
+        }
+        assert!(hits > 400, "{method}: only {hits} rays hit the sphere; the test is not looking at it");
+    }
+    assert_no_validation(&ctx);
+}
+
+#[test]
+fn compact_blob_is_a_sphere_of_radius_r_sqrt_1_minus_cbrt_iso() {
+    let (r, iso) = (2.0, 0.5);
+    let mut s = scene(vec![vec![compact(DVec3::ZERO, r)]], iso, Method::Segment, 1e-4 * r);
+    s.camera.eye = DVec3::new(0.0, 0.0, 6.0);
+    let radius = r * (1.0 - f64::cbrt(iso)).sqrt();
+    // Refinement stops within 1e-4·R; f32 adds a few ulps of t ≈ 5.
+    assert_sphere(&s, radius, 2e-4 * r + 1e-5);
+}
+
+#[test]
+fn gaussian_blob_with_default_weight_is_a_sphere_of_radius_r() {
+    let (r, iso) = (1.5, 0.5);
+    let mut s = scene(vec![vec![gaussian(DVec3::ZERO, r, 2.0, iso)]], iso, Method::Segment, 1e-4 * r);
+    s.camera.eye = DVec3::new(0.0, 0.0, 6.0);
+    assert_sphere(&s, r, 2e-4 * r + 1e-5);
+}
+
+/// Seeds whose rays are known to disagree with the reference, with the
+/// most disagreeing rays allowed: a regression bound, not a tolerance.
+const KNOWN_EXCEPTIONS: &[(u64, bool, usize)] = &[];
+
+#[test]
+fn random_scenes_find_the_references_first_crossing() {
+    let ctx = gpu();
+    let rays_per_scene = 1024;
+    let mut report = Vec::new();
+    for seed in 0..6u64 {
+        for max_of_groups in [false, true] {
+            let s = random_scene(seed, max_of_groups, Method::Segment);
+            let rays = protocol_rays(&s.bounds, rays_per_scene, seed);
+            let reference = reference_hits(&s, &rays, false);
+            let ref_hits = reference.iter().filter(|r| r.is_some()).count();
+            assert!(ref_hits > rays_per_scene / 10, "seed {seed}: only {ref_hits} reference hits; the scene is too sparse to test");
+            let mut renderer = Renderer::new(&ctx, &s).unwrap();
+            renderer.shade = false;
+            for &method in Method::ALL {
+                let out = renderer.march(method, &rays, |_| {}).unwrap();
+                // A hit may land up to the refinement tolerance past the
+                // root, plus f32 rounding of t; never before it.
+                let tol = 2.0 * s.refine_tolerance() + 1e-5;
+                let acc = accuracy(&out.results, &reference, tol, tol);
+                let stats = MarchStats::of(&out.results, None);
+                assert_eq!(stats.out_of_steps_rate, 0.0, "seed {seed} {method}: rays ran out of steps");
+                let bad = acc.misses + acc.false_hits;
+                let allowed = KNOWN_EXCEPTIONS
+                    .iter()
+                    .find(|(s, m, _)| *s == seed && *m == max_of_groups)
+                    .map_or(0, |e| e.2);
+                if bad > allowed {
+                    report.push(format!(
+                        "seed {seed} max={max_of_groups} {method}: {} missed or late, {} early or false (max error {:e})",
+                        acc.misses, acc.false_hits, acc.max_abs_error
+                    ));
+                }
+            }
+        }
+    }
+    assert!(report.is_empty(), "disagreements with the f64 reference:\n{}", report.join("\n"));
+    assert_no_validation(&ctx);
+}
+
+#[test]
+fn segment_tracing_takes_fewer_steps_than_sphere_tracing_on_fig10() {
+    let ctx = gpu();
+    let s = Scene::load(&repo_root().join("scenes/fig10.ron")).unwrap();
+    let rays = protocol_rays(&s.bounds, 4096, 7);
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    let steps = |r: &mut Renderer, m| MarchStats::of(&r.march(m, &rays, |_| {}).unwrap().results, None).steps_per_ray;
+    let (sphere, segment) = (steps(&mut renderer, Method::Sphere), steps(&mut renderer, Method::Segment));
+    assert!(segment < 0.8 * sphere, "segment {segment} steps/ray against sphere {sphere}");
+    assert_no_validation(&ctx);
+}

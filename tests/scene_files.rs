@@ -1,0 +1,67 @@
+//! The shipped scenes: they load, and the benchmark scenes match the CSVs
+//! they were built from.
+
+mod common;
+
+use common::*;
+use glam::DVec3;
+use isomarch::scene::{Kernel, Primitive, Scene};
+
+/// `(group, centre, R)` rows of a benchmark CSV.
+fn csv_rows(name: &str) -> Vec<(usize, DVec3, f64)> {
+    let path = shared_dir().join("benchmarks").join(format!("{name}.csv"));
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    text.lines()
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.trim().parse().unwrap()).collect();
+            (v[0] as usize, DVec3::new(v[1], v[2], v[3]), v[4])
+        })
+        .collect()
+}
+
+fn assert_matches_csv(scene: &str, csv: &str) {
+    let s = Scene::load(&repo_root().join("scenes").join(scene)).unwrap();
+    let rows = csv_rows(csv);
+    assert_eq!(s.iso, 0.5, "BENCHMARKS.md: iso 0.5 for all scenes");
+    assert_eq!(s.primitive_count(), rows.len(), "{scene}: primitive count");
+    let groups = rows.iter().map(|r| r.0).max().unwrap() + 1;
+    assert_eq!(s.groups.len(), groups, "{scene}: group count");
+    let mut by_group = vec![Vec::new(); groups];
+    for r in &rows {
+        by_group[r.0].push(r);
+    }
+    for (g, (prims, rows)) in s.groups.iter().zip(&by_group).enumerate() {
+        assert_eq!(prims.len(), rows.len(), "{scene}: group {g}");
+        for (i, (p, (_, c, radius))) in prims.iter().zip(rows).enumerate() {
+            match p {
+                Primitive::Point { center, kernel: Kernel::Compact { radius: r, weight } } => {
+                    assert!((*center - *c).length() < 1e-9, "{scene}: group {g} primitive {i}: {center} vs {c}");
+                    assert!((r - radius).abs() < 1e-9 && *weight == 1.0, "{scene}: group {g} primitive {i}: R {r} vs {radius}");
+                }
+                other => panic!("{scene}: group {g} primitive {i} is {other:?}, not a compact point"),
+            }
+        }
+    }
+}
+
+#[test]
+fn fig10_matches_its_csv() {
+    assert_matches_csv("fig10.ron", "fig10");
+    let s = Scene::load(&repo_root().join("scenes/fig10.ron")).unwrap();
+    assert_eq!((s.marching.min_step, s.marching.max_steps), (0.1, 1000), "BENCHMARKS.md protocol");
+}
+
+#[test]
+fn every_shipped_scene_loads() {
+    let mut n = 0;
+    for entry in std::fs::read_dir(repo_root().join("scenes")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "ron") {
+            Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+            n += 1;
+        }
+    }
+    assert!(n >= 2, "found only {n} scenes");
+}
