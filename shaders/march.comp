@@ -1,7 +1,8 @@
 #version 460
-// The march kernel: one invocation per ray. The method, the primitive kinds
-// and the group operator are specialization constants (layout.glsl), so a
-// pipeline holds only what its scene uses.
+// The march kernel: one invocation per ray, one slice of its march per
+// dispatch. The method, the primitive kinds and the group operator are
+// specialization constants (layout.glsl), so a pipeline holds only what its
+// scene uses.
 #extension GL_GOOGLE_include_directive : require
 
 #include "bindings.glsl"
@@ -17,19 +18,33 @@ void main() {
     vec3 o = ray.o.xyz;
     vec3 u = ray.d.xyz;
 
-    March m = march_ray(o, u, ray.o.w, ray.d.w);
-    uint march_evals = g_evals;
+    March m;
+    if (push.first_slice != 0u) {
+        m = march_start(o, u, ray.o.w, ray.d.w);
+    } else {
+        GpuMarchState s = states[i];
+        if ((s.n.w & FLAG_DONE) != 0u) return;
+        m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w);
+        g_evals = s.n.y;
+    }
+    for (uint k = 0u; k < push.slice_steps && (m.flags & FLAG_DONE) == 0u; ++k) {
+        march_step(o, u, ray.d.w, m);
+    }
+    states[i] = GpuMarchState(vec4(m.t, m.f, m.window, 0.0), uvec4(m.steps, g_evals, m.refine_evals, m.flags));
+    if ((m.flags & FLAG_DONE) == 0u) {
+        atomicAdd(active_rays, 1u);
+        return;
+    }
 
     GpuResult r;
     r.hit = vec4(0.0, 0.0, 0.0, -1.0);
     r.color = vec4(globals.background.rgb, 0.0);
-    uint flags = (m.hit ? FLAG_HIT : 0u) | (m.out_of_steps ? FLAG_OUT_OF_STEPS : 0u);
-    if (m.hit) {
+    // Shading evaluations are not marching cost: count only the march.
+    r.counts = uvec4(m.steps, g_evals, m.refine_evals, m.flags & (FLAG_HIT | FLAG_OUT_OF_STEPS));
+    if ((m.flags & FLAG_HIT) != 0u) {
         vec3 n = surface_normal(o + m.t * u);
         r.hit = vec4(n, m.t);
         if (SC_SHADE != 0u) r.color = vec4(shade(n, u), 1.0);
     }
-    // Shading evaluations are not marching cost: count only the march.
-    r.counts = uvec4(m.steps, march_evals, m.refine_evals, flags);
     results[i] = r;
 }

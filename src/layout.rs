@@ -65,6 +65,11 @@ gpu_structs! {
     /// `counts`: steps, kernel evaluations, refinement evaluations, flags.
     struct GpuResult { hit: Vec4, color: Vec4, counts: UVec4 }
 
+    /// A ray's marching state between dispatches (see `render::Renderer::march`):
+    /// `v`: t, f(t), candidate interval length, reserved;
+    /// `n`: steps, kernel evaluations, refinement evaluations, flags.
+    struct GpuMarchState { v: Vec4, n: UVec4 }
+
     /// Scene-wide constants. `march`: x iso, y minimum step, z refinement
     /// tolerance, w global Lipschitz bound (sphere tracing).
     /// `sizes`: x primitive count, y group count, z light count, w max steps.
@@ -85,6 +90,8 @@ pub const PRIM_COMPACT_PLANE: u32 = 2;
 pub const FLAG_HIT: u32 = 1;
 /// The step budget ran out before the ray left the scene.
 pub const FLAG_OUT_OF_STEPS: u32 = 2;
+/// The march of this ray is over; its result is written.
+pub const FLAG_DONE: u32 = 4;
 
 /// Marching methods (specialization constant `SC_METHOD`).
 pub const METHOD_SPHERE: u32 = 0;
@@ -110,6 +117,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("PRIM_COMPACT_PLANE", PRIM_COMPACT_PLANE),
     ("FLAG_HIT", FLAG_HIT),
     ("FLAG_OUT_OF_STEPS", FLAG_OUT_OF_STEPS),
+    ("FLAG_DONE", FLAG_DONE),
 ];
 
 /// The whole generated `layout.glsl`.

@@ -226,8 +226,10 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("error: {e:#}");
             if e.downcast_ref::<GpuError>().is_some_and(|g| matches!(g, GpuError::DeadlineExceeded(_))) {
-                // The GPU may still run our work: exit now, freeing nothing.
-                std::process::exit(3);
+                // The GPU may still run our work: leave now without running
+                // exit handlers, which would tear down the driver under it.
+                // SAFETY: _exit ends the process at once; nothing runs after.
+                unsafe { libc::_exit(3) };
             }
             ExitCode::FAILURE
         }

@@ -9,10 +9,15 @@ layout(std430, binding = 1) readonly buffer PrimitiveBuffer { GpuPrimitive prims
 layout(std430, binding = 2) readonly buffer LightBuffer { GpuLight lights[]; };
 layout(std430, binding = 3) readonly buffer RayBuffer { GpuRay rays[]; };
 layout(std430, binding = 4) writeonly buffer ResultBuffer { GpuResult results[]; };
+layout(std430, binding = 5) buffer StateBuffer { GpuMarchState states[]; };
+// Rays still marching after this dispatch.
+layout(std430, binding = 6) buffer ActiveBuffer { uint active_rays; };
 
-// The tile of rays this dispatch handles.
+// One slice of the march of one tile of rays.
 layout(push_constant) uniform Push {
     uint ray_count;
+    uint first_slice;   // 1: start the rays; 0: resume them from `states`
+    uint slice_steps;   // marching steps per ray in this dispatch
 } push;
 
 #endif

@@ -2,17 +2,22 @@
 // method proposes a step that cannot pass the first root; the minimum step
 // overrides it; a crossing is registered when f >= 0 and refined by
 // bisection (BENCHMARKS.md, "Hits and the minimum step").
+//
+// A march runs in slices of a bounded number of steps, its state kept in
+// GpuMarchState between dispatches, so no dispatch runs unboundedly long
+// (lavapipe also caps the loop iterations of one invocation at 65535).
 #ifndef MARCHERS_GLSL
 #define MARCHERS_GLSL
 
 #include "field.glsl"
 
 struct March {
-    float t;            // hit distance, or the last point reached
-    bool hit;
-    bool out_of_steps;
+    float t;            // current point; the hit distance once FLAG_HIT
+    float f;            // f(t)
+    float window;       // candidate interval length for the next step
     uint steps;
     uint refine_evals;
+    uint flags;
 };
 
 // Bisection between a (outside, f < 0) and b (inside, f >= 0) down to the
@@ -41,52 +46,52 @@ float segment_step(vec3 o, vec3 u, float t, float f, float tmax, float window) {
     return lambda > 0.0 ? min(abs(f) / lambda, len) : len;
 }
 
-March march_ray(vec3 o, vec3 u, float tmin, float tmax) {
+March march_start(vec3 o, vec3 u, float tmin, float tmax) {
     March m;
     m.t = tmin;
-    m.hit = false;
-    m.out_of_steps = false;
+    m.f = -1.0;
+    m.window = tmax - tmin;
     m.steps = 0u;
     m.refine_evals = 0u;
-    if (!(tmax >= tmin)) return m;
-
-    float min_step = globals.march.y;
-    uint max_steps = globals.sizes.w;
-    float growth = globals.tuning.x;
-    float t = tmin;
-    float f = field(o + t * u);
-    if (f >= 0.0) {          // the ray starts inside
-        m.hit = true;
+    m.flags = 0u;
+    if (!(tmax >= tmin)) {
+        m.flags = FLAG_DONE;
         return m;
     }
-    float window = tmax - tmin;
-    while (t < tmax) {
-        if (m.steps >= max_steps) {
-            m.out_of_steps = true;
-            break;
-        }
-        m.steps += 1u;
-        float step;
-        if (SC_METHOD == METHOD_SPHERE) {
-            step = sphere_step(f);
-        } else {
-            step = segment_step(o, u, t, f, tmax, window);
-        }
-        step = max(step, min_step);
-        float t_prev = t;
-        t = min(t + step, tmax);
-        f = field(o + t * u);
-        if (f >= 0.0) {
-            uint before = g_evals;
-            m.t = refine_crossing(o, u, t_prev, t);
-            m.refine_evals = g_evals - before;
-            m.hit = true;
-            return m;
-        }
-        window = growth * step;
-    }
-    m.t = t;
+    m.f = field(o + tmin * u);
+    if (m.f >= 0.0) m.flags = FLAG_DONE | FLAG_HIT;   // the ray starts inside
     return m;
+}
+
+// One iteration of Algorithm 1.
+void march_step(vec3 o, vec3 u, float tmax, inout March m) {
+    if (m.t >= tmax) {
+        m.flags |= FLAG_DONE;
+        return;
+    }
+    if (m.steps >= globals.sizes.w) {
+        m.flags |= FLAG_DONE | FLAG_OUT_OF_STEPS;
+        return;
+    }
+    m.steps += 1u;
+    float step;
+    if (SC_METHOD == METHOD_SPHERE) {
+        step = sphere_step(m.f);
+    } else {
+        step = segment_step(o, u, m.t, m.f, tmax, m.window);
+    }
+    step = max(step, globals.march.y);
+    float t_prev = m.t;
+    m.t = min(m.t + step, tmax);
+    m.f = field(o + m.t * u);
+    if (m.f >= 0.0) {
+        uint before = g_evals;
+        m.t = refine_crossing(o, u, t_prev, m.t);
+        m.refine_evals += g_evals - before;
+        m.flags |= FLAG_DONE | FLAG_HIT;
+        return;
+    }
+    m.window = globals.tuning.x * step;
 }
 
 #endif

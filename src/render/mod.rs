@@ -12,7 +12,7 @@ use anyhow::{Result, bail};
 
 use crate::field::Field;
 use crate::gpu::{Buffer, ComputePipeline, Context, Submitter};
-use crate::layout::{self, GpuGlobals, GpuLight, GpuPrimitive, GpuResult, GpuRay};
+use crate::layout::{self, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuResult, GpuRay};
 use crate::method::Method;
 use crate::scene::{Kernel, Primitive, Scene};
 
@@ -22,6 +22,31 @@ const MARCH_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march.spv"));
 /// Rays per dispatch: big images become many bounded dispatches.
 pub const TILE_RAYS: usize = 1 << 16;
 const WORKGROUP: usize = 64;
+const BINDINGS: u32 = 7;
+const PUSH_CONSTANT_BYTES: u32 = 12;
+
+/// Loop iterations one invocation may run per dispatch. lavapipe silently
+/// ends any invocation after 65535 loop iterations (all loops together), so
+/// a march runs in slices that stay well below that, resuming from its saved
+/// state; on every device this also bounds the length of one dispatch.
+const LOOP_BUDGET: usize = 32_768;
+/// Refinement runs at most 64 bisection steps.
+const REFINE_ITERATIONS: usize = 64;
+
+/// Marching steps per slice for a scene of `primitives` primitives: each
+/// step loops over the primitives about twice (bound and value), and the
+/// last one may also refine and shade.
+pub fn slice_steps(primitives: usize) -> Result<u32> {
+    let fixed = (REFINE_ITERATIONS + 2) * (primitives + 1);
+    let per_step = 2 * primitives + 4;
+    if fixed + per_step > LOOP_BUDGET {
+        bail!(
+            "{primitives} primitives are more than one marching step can visit within the per-dispatch loop budget ({LOOP_BUDGET} iterations); at most {} are supported until an acceleration structure exists",
+            LOOP_BUDGET / (REFINE_ITERATIONS + 5) - 1
+        );
+    }
+    Ok(((LOOP_BUDGET - fixed) / per_step) as u32)
+}
 
 /// Segment tracing grows its candidate segment to 1.5 times the last step
 /// (BENCHMARKS.md).
@@ -44,6 +69,9 @@ pub struct Renderer {
     lights: Buffer,
     rays: Buffer,
     results: Buffer,
+    states: Buffer,
+    active: Buffer,
+    slice_steps: u32,
     pipelines: HashMap<Method, ComputePipeline>,
     submitter: Submitter,
     /// Give up when the GPU is not done by then.
@@ -135,6 +163,7 @@ impl Renderer {
                 ctx.info.name
             );
         }
+        let slice_steps = slice_steps(scene.primitive_count()).map_err(|e| anyhow::anyhow!("{}: groups: {e}", scene.source))?;
         let prims = gpu_primitives(scene);
         let lights: Vec<GpuLight> = scene
             .lights
@@ -150,6 +179,9 @@ impl Renderer {
             lights: Buffer::with_data(ctx, "lights", &lights)?,
             rays: Buffer::new(ctx, "rays", (TILE_RAYS * size_of::<GpuRay>()) as u64)?,
             results: Buffer::new(ctx, "results", (TILE_RAYS * size_of::<GpuResult>()) as u64)?,
+            states: Buffer::new(ctx, "march states", (TILE_RAYS * size_of::<GpuMarchState>()) as u64)?,
+            active: Buffer::new(ctx, "active ray count", 16)?,
+            slice_steps,
             pipelines: HashMap::new(),
             submitter: Submitter::new(ctx)?,
             ctx: Arc::clone(ctx),
@@ -166,37 +198,49 @@ impl Renderer {
     fn pipeline(&mut self, method: Method) -> Result<&ComputePipeline> {
         if !self.pipelines.contains_key(&method) {
             let spec = specialization(&self.scene, method, self.shade);
-            let p = ComputePipeline::new(&self.ctx, MARCH_SPV, 5, 4, &spec)?;
-            p.bind(&[&self.globals, &self.prims, &self.lights, &self.rays, &self.results])?;
+            let p = ComputePipeline::new(&self.ctx, MARCH_SPV, BINDINGS, PUSH_CONSTANT_BYTES, &spec)?;
+            p.bind(&[&self.globals, &self.prims, &self.lights, &self.rays, &self.results, &self.states, &self.active])?;
             self.pipelines.insert(method, p);
         }
         Ok(&self.pipelines[&method])
     }
 
-    /// Marches `rays` with `method`, one tile per submission, all within
-    /// `self.timeout`. `progress` gets the number of rays done after each tile.
+    /// Marches `rays` with `method`, one tile per submission, each tile in
+    /// slices until every ray is done, all within `self.timeout`.
+    /// `progress` gets the number of rays done after each tile.
     pub fn march(&mut self, method: Method, rays: &[GpuRay], mut progress: impl FnMut(usize)) -> Result<MarchOutput> {
         let deadline = Instant::now() + self.timeout;
         self.pipeline(method)?;
         let mut results = Vec::with_capacity(rays.len());
         let mut gpu_ns = Some(0.0);
+        // Every slice but a ray's last takes `slice_steps` steps.
+        let max_slices = self.scene.marching.max_steps / self.slice_steps + 2;
         for tile in rays.chunks(TILE_RAYS) {
             self.rays.write(0, tile)?;
             let pipeline = &self.pipelines[&method];
             let (handle, layout, set) = (pipeline.pipeline, pipeline.layout, pipeline.set);
-            let count = tile.len() as u32;
             let groups = tile.len().div_ceil(WORKGROUP) as u32;
-            let ns = self.submitter.run(deadline, self.timeout, |d, cmd| {
-                // SAFETY: the pipeline, its layout and set are alive and
-                // bound to buffers sized for a full tile.
-                unsafe {
-                    d.cmd_bind_pipeline(cmd, ash::vk::PipelineBindPoint::COMPUTE, handle);
-                    d.cmd_bind_descriptor_sets(cmd, ash::vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
-                    d.cmd_push_constants(cmd, layout, ash::vk::ShaderStageFlags::COMPUTE, 0, &count.to_ne_bytes());
-                    d.cmd_dispatch(cmd, groups, 1, 1);
+            for slice in 0.. {
+                if slice > max_slices {
+                    bail!("rays still marching after {slice} slices of {} steps: a marcher ignores its step budget", self.slice_steps);
                 }
-            })?;
-            gpu_ns = gpu_ns.zip(ns).map(|(a, b)| a + b);
+                self.active.write(0, &[0u32])?;
+                let push: [u32; 3] = [tile.len() as u32, u32::from(slice == 0), self.slice_steps];
+                let ns = self.submitter.run(deadline, self.timeout, |d, cmd| {
+                    // SAFETY: the pipeline, its layout and set are alive and
+                    // bound to buffers sized for a full tile.
+                    unsafe {
+                        d.cmd_bind_pipeline(cmd, ash::vk::PipelineBindPoint::COMPUTE, handle);
+                        d.cmd_bind_descriptor_sets(cmd, ash::vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
+                        d.cmd_push_constants(cmd, layout, ash::vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&push));
+                        d.cmd_dispatch(cmd, groups, 1, 1);
+                    }
+                })?;
+                gpu_ns = gpu_ns.zip(ns).map(|(a, b)| a + b);
+                if self.active.read::<u32>(0, 1)?[0] == 0 {
+                    break;
+                }
+            }
             results.extend(self.results.read::<GpuResult>(0, tile.len())?);
             progress(results.len());
         }
