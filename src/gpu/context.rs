@@ -1,6 +1,7 @@
 //! Instance, physical device choice, logical device, queue and allocator.
 
 use std::ffi::{CStr, CString, c_void};
+use std::mem::ManuallyDrop;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -43,7 +44,9 @@ pub struct DeviceInfo {
 /// lavapipe cannot cancel a dispatch: [`Context::mark_hung`] makes every
 /// wrapper leak instead of destroying, so the process can report and exit.
 pub struct Context {
-    _entry: ash::Entry,
+    // Dropping the entry unloads the Vulkan loader and the driver with it:
+    // only done once the device is gone (never while the GPU may be busy).
+    entry: ManuallyDrop<ash::Entry>,
     pub instance: ash::Instance,
     pub physical_device: vk::PhysicalDevice,
     pub device: ash::Device,
@@ -254,7 +257,7 @@ impl Context {
         .context("creating the GPU memory allocator")?;
 
         Ok(Arc::new(Context {
-            _entry: entry,
+            entry: ManuallyDrop::new(entry),
             instance,
             physical_device,
             device,
@@ -300,6 +303,12 @@ impl Context {
 impl Drop for Context {
     fn drop(&mut self) {
         if self.is_hung() {
+            // The allocator's drop would free memory the GPU may be using.
+            if let Ok(mut guard) = self.allocator.lock() {
+                std::mem::forget(guard.take());
+            }
+            // The messenger stays alive, so its sink must too.
+            std::mem::forget(self._callback_sink.take());
             return;
         }
         // SAFETY: every wrapper holds an Arc<Context>, so none is alive now;
@@ -314,6 +323,7 @@ impl Drop for Context {
                 loader.destroy_debug_utils_messenger(messenger, None);
             }
             self.instance.destroy_instance(None);
+            ManuallyDrop::drop(&mut self.entry);
         }
     }
 }
