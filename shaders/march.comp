@@ -20,7 +20,7 @@ void main() {
 
     March m;
     if (push.first_slice != 0u) {
-        m = march_start(o, u, ray.o.w, ray.d.w);
+        m = march_start(ray.o.w, ray.d.w);
     } else {
         GpuMarchState s = states[i];
         if ((s.n.w & FLAG_DONE) != 0u) return;
@@ -30,7 +30,7 @@ void main() {
     for (uint k = 0u; k < push.slice_steps && (m.flags & FLAG_DONE) == 0u; ++k) {
         march_step(o, u, ray.d.w, m);
     }
-    states[i] = GpuMarchState(vec4(m.t, m.f, m.window, 0.0), uvec4(m.steps, g_evals, m.refine_evals, m.flags));
+    states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, 0.0), uvec4(m.steps, g_evals, m.refine_evals, m.flags));
     if ((m.flags & FLAG_DONE) == 0u) {
         atomicAdd(active_rays, 1u);
         return;

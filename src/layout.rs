@@ -65,15 +65,19 @@ gpu_structs! {
     /// `counts`: steps, kernel evaluations, refinement evaluations, flags.
     struct GpuResult { hit: Vec4, color: Vec4, counts: UVec4 }
 
+    /// A forward bound on `[t0, t1]` from the bounds probe:
+    /// `lo` = (v, a_lo, b_lo, t_valid), `hi` = (v, a_hi, b_hi, 0).
+    struct GpuBound { lo: Vec4, hi: Vec4 }
+
     /// A ray's marching state between dispatches (see `render::Renderer::march`):
-    /// `v`: t, f(t), candidate interval length, reserved;
+    /// `v`: t, the previous point t_prev, candidate interval length, reserved;
     /// `n`: steps, kernel evaluations, refinement evaluations, flags.
     struct GpuMarchState { v: Vec4, n: UVec4 }
 
     /// Scene-wide constants. `march`: x iso, y minimum step, z refinement
     /// tolerance, w global Lipschitz bound (sphere tracing).
     /// `sizes`: x primitive count, y group count, z light count, w max steps.
-    /// `tuning`: x segment growth factor (segment tracing), yzw reserved.
+    /// `tuning`: x interval growth factor k (Algorithm 1), yzw reserved.
     struct GpuGlobals { march: Vec4, sizes: UVec4, tuning: Vec4, background: Vec4, surface: Vec4, ambient: Vec4 }
 
     /// A directional light: `dir.xyz` towards the light (unit), `color.rgb`
@@ -96,6 +100,8 @@ pub const FLAG_DONE: u32 = 4;
 /// Marching methods (specialization constant `SC_METHOD`).
 pub const METHOD_SPHERE: u32 = 0;
 pub const METHOD_SEGMENT: u32 = 1;
+pub const METHOD_LINEAR_TAYLOR: u32 = 2;
+pub const METHOD_QUADRATIC_TAYLOR: u32 = 3;
 
 /// Specialization constants as `(constant_id, name)`; all are `uint`.
 /// `SC_HAS_*` are 0 or 1: a pipeline keeps only the code paths its scene uses.
@@ -112,6 +118,8 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
 pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("METHOD_SPHERE", METHOD_SPHERE),
     ("METHOD_SEGMENT", METHOD_SEGMENT),
+    ("METHOD_LINEAR_TAYLOR", METHOD_LINEAR_TAYLOR),
+    ("METHOD_QUADRATIC_TAYLOR", METHOD_QUADRATIC_TAYLOR),
     ("PRIM_COMPACT_POINT", PRIM_COMPACT_POINT),
     ("PRIM_GAUSSIAN_POINT", PRIM_GAUSSIAN_POINT),
     ("PRIM_COMPACT_PLANE", PRIM_COMPACT_PLANE),

@@ -40,7 +40,8 @@ struct GpuArgs {
 
 #[derive(Args)]
 struct MarchArgs {
-    /// Marcher: sphere or segment (default: the scene's marching.method).
+    /// Marcher: sphere, segment, linear-taylor or quadratic-taylor
+    /// (default: the scene's marching.method).
     #[arg(long)]
     method: Option<String>,
     /// Override the scene's minimum step (scene units).
@@ -49,6 +50,10 @@ struct MarchArgs {
     /// Override the scene's step budget per ray.
     #[arg(long)]
     max_steps: Option<u32>,
+    /// Interval growth k of Algorithm 1 (next interval = k x last step);
+    /// default: the scene's, else 1.5 for segment tracing and 2 otherwise.
+    #[arg(long, value_name = "K")]
+    growth: Option<f64>,
 }
 
 #[derive(Subcommand)]
@@ -133,6 +138,12 @@ fn load_scene(path: &PathBuf, march: &MarchArgs) -> Result<Scene> {
             bail!("--max-steps must be at least 1");
         }
         scene.marching.max_steps = n;
+    }
+    if let Some(k) = march.growth {
+        if !(k.is_finite() && k >= 1.0) {
+            bail!("--growth must be a finite number >= 1, got {k}");
+        }
+        scene.marching.growth = Some(k);
     }
     Ok(scene)
 }

@@ -12,15 +12,32 @@ pub enum Method {
     Sphere,
     /// Segment tracing (Galin et al. 2020), pinned in BENCHMARKS.md.
     Segment,
+    /// Linear Taylor forward bounds (Section 5.1, Eq. 13-15): slopes from
+    /// the exact range of f' over the interval, per primitive.
+    LinearTaylor,
+    /// Quadratic Taylor forward bounds (Section 6.1, Eq. 19).
+    QuadraticTaylor,
 }
 
 impl Method {
-    pub const ALL: &'static [Method] = &[Method::Sphere, Method::Segment];
+    pub const ALL: &'static [Method] = &[Method::Sphere, Method::Segment, Method::LinearTaylor, Method::QuadraticTaylor];
 
     pub fn name(self) -> &'static str {
         match self {
             Method::Sphere => "sphere",
             Method::Segment => "segment",
+            Method::LinearTaylor => "linear-taylor",
+            Method::QuadraticTaylor => "quadratic-taylor",
+        }
+    }
+
+    /// Algorithm 1's interval growth k: the next candidate interval is k
+    /// times the last step. Segment tracing's 1.5 is pinned by
+    /// BENCHMARKS.md; the others use the paper's k = 2.
+    pub fn default_growth(self) -> f64 {
+        match self {
+            Method::Sphere | Method::Segment => 1.5,
+            Method::LinearTaylor | Method::QuadraticTaylor => 2.0,
         }
     }
 
@@ -29,6 +46,8 @@ impl Method {
         match self {
             Method::Sphere => layout::METHOD_SPHERE,
             Method::Segment => layout::METHOD_SEGMENT,
+            Method::LinearTaylor => layout::METHOD_LINEAR_TAYLOR,
+            Method::QuadraticTaylor => layout::METHOD_QUADRATIC_TAYLOR,
         }
     }
 }

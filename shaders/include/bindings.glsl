@@ -8,7 +8,11 @@ layout(std430, binding = 0) readonly buffer GlobalsBuffer { GpuGlobals globals; 
 layout(std430, binding = 1) readonly buffer PrimitiveBuffer { GpuPrimitive prims[]; };
 layout(std430, binding = 2) readonly buffer LightBuffer { GpuLight lights[]; };
 layout(std430, binding = 3) readonly buffer RayBuffer { GpuRay rays[]; };
+#ifdef BOUNDS_PROBE
+layout(std430, binding = 4) writeonly buffer BoundBuffer { GpuBound bounds[]; };
+#else
 layout(std430, binding = 4) writeonly buffer ResultBuffer { GpuResult results[]; };
+#endif
 layout(std430, binding = 5) buffer StateBuffer { GpuMarchState states[]; };
 // Rays still marching after this dispatch.
 layout(std430, binding = 6) buffer ActiveBuffer { uint active_rays; };

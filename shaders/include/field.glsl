@@ -118,22 +118,31 @@ float prim_segment_slope(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
     return kernel_slope(kind, pr.b, clamp(pr.b.w, lo, hi)) * dd_dt;
 }
 
-// Lipschitz bound of f on the segment: max over groups of summed slopes.
-float segment_lipschitz(vec3 o, vec3 u, float ta, float tb) {
+// f at o + ta u and segment tracing's Lipschitz bound on [ta, tb], in one
+// pass over the primitives: max over groups of sums for both.
+float field_and_lipschitz(vec3 o, vec3 u, float ta, float tb, out float lambda) {
     uint n = globals.sizes.x;
-    float best = 0.0;
+    vec3 p = o + ta * u;
+    vec3 unused = vec3(0.0);
+    float best = -3.0e38;
+    float best_slope = 0.0;
     float sum = 0.0;
+    float slope = 0.0;
     uint group = 0u;
     for (uint i = 0u; i < n; ++i) {
         GpuPrimitive pr = prims[i];
         if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
             best = max(best, sum);
+            best_slope = max(best_slope, slope);
             sum = 0.0;
+            slope = 0.0;
             group = pr.ids.y;
         }
-        sum += prim_segment_slope(pr, o, u, ta, tb);
+        sum += prim_value(pr, p, false, unused);
+        slope += prim_segment_slope(pr, o, u, ta, tb);
     }
-    return max(best, sum);
+    lambda = max(best_slope, slope);
+    return max(best, sum) - globals.march.x;
 }
 
 #endif

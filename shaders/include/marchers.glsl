@@ -10,10 +10,11 @@
 #define MARCHERS_GLSL
 
 #include "field.glsl"
+#include "inclusion.glsl"
 
 struct March {
     float t;            // current point; the hit distance once FLAG_HIT
-    float f;            // f(t)
+    float t_prev;       // the point before, outside
     float window;       // candidate interval length for the next step
     uint steps;
     uint refine_evals;
@@ -32,65 +33,59 @@ float refine_crossing(vec3 o, vec3 u, float a, float b) {
     return b;
 }
 
-// Sphere tracing: the global Lipschitz bound (Eq. 10).
-float sphere_step(float f) {
-    return abs(f) / globals.march.w;
-}
-
-// Segment tracing (Galin et al. 2020, pinned in BENCHMARKS.md): the bound
-// on the candidate segment [t, t + window].
-float segment_step(vec3 o, vec3 u, float t, float f, float tmax, float window) {
-    float tb = min(t + window, tmax);
-    float lambda = segment_lipschitz(o, u, t, tb);
-    float len = tb - t;
-    return lambda > 0.0 ? min(abs(f) / lambda, len) : len;
-}
-
-March march_start(vec3 o, vec3 u, float tmin, float tmax) {
-    March m;
-    m.t = tmin;
-    m.f = -1.0;
-    m.window = tmax - tmin;
-    m.steps = 0u;
-    m.refine_evals = 0u;
-    m.flags = 0u;
-    if (!(tmax >= tmin)) {
-        m.flags = FLAG_DONE;
-        return m;
-    }
-    m.f = field(o + tmin * u);
-    if (m.f >= 0.0) m.flags = FLAG_DONE | FLAG_HIT;   // the ray starts inside
+March march_start(float tmin, float tmax) {
+    March m = March(tmin, tmin, tmax - tmin, 0u, 0u, 0u);
+    if (!(tmax >= tmin)) m.flags = FLAG_DONE;
     return m;
 }
 
-// One iteration of Algorithm 1.
+// One iteration of Algorithm 1: f at t (from the bound itself where the
+// method has one: forward bounds are exact at t), a crossing check, and a
+// step to the first root of the relevant bound on [t, t + window], at
+// least the minimum step. The next window is `growth` times the step.
 void march_step(vec3 o, vec3 u, float tmax, inout March m) {
-    if (m.t >= tmax) {
-        m.flags |= FLAG_DONE;
-        return;
-    }
     if (m.steps >= globals.sizes.w) {
         m.flags |= FLAG_DONE | FLAG_OUT_OF_STEPS;
         return;
     }
     m.steps += 1u;
+    float t_end = min(m.t + m.window, tmax);
+    float len = t_end - m.t;
+    float f;
     float step;
     if (SC_METHOD == METHOD_SPHERE) {
-        step = sphere_step(m.f);
+        f = field(o + m.t * u);
+        step = abs(f) / globals.march.w;                      // Eq. 10
+    } else if (SC_METHOD == METHOD_SEGMENT) {
+        float lambda;
+        f = field_and_lipschitz(o, u, m.t, t_end, lambda);   // Eq. 11, BENCHMARKS.md
+        step = lambda > 0.0 ? min(abs(f) / lambda, len) : len;
     } else {
-        step = segment_step(o, u, m.t, m.f, tmax, m.window);
+        Bound b = field_taylor(o, u, m.t, t_end, SC_METHOD == METHOD_QUADRATIC_TAYLOR);
+        f = b.v;
+        step = min(next_root(b), len);
     }
-    step = max(step, globals.march.y);
-    float t_prev = m.t;
-    m.t = min(m.t + step, tmax);
-    m.f = field(o + m.t * u);
-    if (m.f >= 0.0) {
-        uint before = g_evals;
-        m.t = refine_crossing(o, u, t_prev, m.t);
-        m.refine_evals += g_evals - before;
+    if (f >= 0.0) {
+        if (m.steps > 1u) {
+            uint before = g_evals;
+            m.t = refine_crossing(o, u, m.t_prev, m.t);
+            m.refine_evals += g_evals - before;
+        }
         m.flags |= FLAG_DONE | FLAG_HIT;
         return;
     }
+    if (m.t >= tmax) {
+        m.flags |= FLAG_DONE;
+        return;
+    }
+    // `step` is proven free of crossings. Reaching the end with it ends the
+    // march (Algorithm 1 stops at t1 without evaluating there); a step
+    // forced longer by the minimum step must be checked at its end.
+    float safe = step;
+    step = max(step, globals.march.y);
+    m.t_prev = m.t;
+    m.t = min(m.t + step, tmax);
+    if (m.t >= tmax && safe >= tmax - m.t_prev) m.flags |= FLAG_DONE;
     m.window = globals.tuning.x * step;
 }
 

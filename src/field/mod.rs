@@ -1,6 +1,7 @@
 //! The f64 CPU reference of every field: the same maths as the shaders, in
 //! double precision. It is the oracle for the tests and the benchmarks.
 
+pub mod bounds;
 pub mod reference;
 
 use glam::DVec3;

@@ -9,15 +9,25 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{Result, bail};
+use ash::vk;
 
 use crate::field::Field;
 use crate::gpu::{Buffer, ComputePipeline, Context, Submitter};
-use crate::layout::{self, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuResult, GpuRay};
+use crate::layout::{self, GpuBound, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuResult, GpuRay};
 use crate::method::Method;
-use crate::scene::{Kernel, Primitive, Scene};
+use crate::scene::{self, Primitive, Scene};
 
 /// SPIR-V of the march kernel, built by build.rs.
 const MARCH_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march.spv"));
+/// SPIR-V of the bounds probe (tests of the inclusion functions).
+const BOUNDS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bounds.spv"));
+
+/// Which entry point a pipeline runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum EntryPoint {
+    March,
+    BoundsProbe,
+}
 
 /// Rays per dispatch: big images become many bounded dispatches.
 pub const TILE_RAYS: usize = 1 << 16;
@@ -48,9 +58,6 @@ pub fn slice_steps(primitives: usize) -> Result<u32> {
     Ok(((LOOP_BUDGET - fixed) / per_step) as u32)
 }
 
-/// Segment tracing grows its candidate segment to 1.5 times the last step
-/// (BENCHMARKS.md).
-pub const SEGMENT_GROWTH: f32 = 1.5;
 
 /// What the march of a batch of rays produced.
 pub struct MarchOutput {
@@ -72,11 +79,14 @@ pub struct Renderer {
     states: Buffer,
     active: Buffer,
     slice_steps: u32,
-    pipelines: HashMap<Method, ComputePipeline>,
+    pipelines: HashMap<(EntryPoint, Method), ComputePipeline>,
     submitter: Submitter,
     /// Give up when the GPU is not done by then.
     pub timeout: Duration,
     pub shade: bool,
+    /// Interval growth k for every method; `None`: the scene's, else each
+    /// method's default.
+    pub growth: Option<f64>,
 }
 
 /// The primitives in GPU layout, sorted by group.
@@ -89,8 +99,8 @@ pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
             let (a, kind) = match *p {
                 Primitive::Point { center, kernel } => {
                     let kind = match kernel {
-                        Kernel::Compact { .. } => layout::PRIM_COMPACT_POINT,
-                        Kernel::Gaussian { .. } => layout::PRIM_GAUSSIAN_POINT,
+                        scene::Kernel::Compact { .. } => layout::PRIM_COMPACT_POINT,
+                        scene::Kernel::Gaussian { .. } => layout::PRIM_GAUSSIAN_POINT,
                     };
                     ([center.x as f32, center.y as f32, center.z as f32, 0.0], kind)
                 }
@@ -109,7 +119,7 @@ pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
     out
 }
 
-fn globals(scene: &Scene) -> GpuGlobals {
+fn globals(scene: &Scene, growth: f64) -> GpuGlobals {
     let rgb = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
     GpuGlobals {
         march: [
@@ -124,7 +134,7 @@ fn globals(scene: &Scene) -> GpuGlobals {
             scene.lights.len() as u32,
             scene.marching.max_steps,
         ],
-        tuning: [SEGMENT_GROWTH, 0.0, 0.0, 0.0],
+        tuning: [growth as f32, 0.0, 0.0, 0.0],
         background: rgb(scene.background),
         surface: rgb(scene.surface),
         ambient: rgb(scene.ambient),
@@ -136,8 +146,8 @@ pub fn specialization(scene: &Scene, method: Method, shade: bool) -> Vec<(u32, u
     let has = |pred: fn(&Primitive) -> bool| u32::from(scene.primitives().any(pred));
     let values = [
         ("SC_METHOD", method.shader_id()),
-        ("SC_HAS_COMPACT_POINT", has(|p| matches!(p, Primitive::Point { kernel: Kernel::Compact { .. }, .. }))),
-        ("SC_HAS_GAUSSIAN_POINT", has(|p| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. }))),
+        ("SC_HAS_COMPACT_POINT", has(|p| matches!(p, Primitive::Point { kernel: scene::Kernel::Compact { .. }, .. }))),
+        ("SC_HAS_GAUSSIAN_POINT", has(|p| matches!(p, Primitive::Point { kernel: scene::Kernel::Gaussian { .. }, .. }))),
         ("SC_HAS_COMPACT_PLANE", has(|p| matches!(p, Primitive::Plane { .. }))),
         ("SC_MULTI_GROUP", u32::from(scene.groups.len() > 1)),
         ("SC_SHADE", u32::from(shade)),
@@ -174,7 +184,7 @@ impl Renderer {
             })
             .collect();
         Ok(Renderer {
-            globals: Buffer::with_data(ctx, "globals", &[globals(scene)])?,
+            globals: Buffer::with_data(ctx, "globals", &[globals(scene, 2.0)])?,
             prims: Buffer::with_data(ctx, "primitives", &prims)?,
             lights: Buffer::with_data(ctx, "lights", &lights)?,
             rays: Buffer::new(ctx, "rays", (TILE_RAYS * size_of::<GpuRay>()) as u64)?,
@@ -188,6 +198,7 @@ impl Renderer {
             scene: scene.clone(),
             timeout: Duration::from_secs(600),
             shade: true,
+            growth: None,
         })
     }
 
@@ -195,14 +206,57 @@ impl Renderer {
         &self.scene
     }
 
-    fn pipeline(&mut self, method: Method) -> Result<&ComputePipeline> {
-        if !self.pipelines.contains_key(&method) {
+    fn pipeline(&mut self, entry: EntryPoint, method: Method) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
+        let key = (entry, method);
+        if !self.pipelines.contains_key(&key) {
             let spec = specialization(&self.scene, method, self.shade);
-            let p = ComputePipeline::new(&self.ctx, MARCH_SPV, BINDINGS, PUSH_CONSTANT_BYTES, &spec)?;
+            let spirv = match entry {
+                EntryPoint::March => MARCH_SPV,
+                EntryPoint::BoundsProbe => BOUNDS_SPV,
+            };
+            let p = ComputePipeline::new(&self.ctx, spirv, BINDINGS, PUSH_CONSTANT_BYTES, &spec)?;
             p.bind(&[&self.globals, &self.prims, &self.lights, &self.rays, &self.results, &self.states, &self.active])?;
-            self.pipelines.insert(method, p);
+            self.pipelines.insert(key, p);
         }
-        Ok(&self.pipelines[&method])
+        let p = &self.pipelines[&key];
+        Ok((p.pipeline, p.layout, p.set))
+    }
+
+    /// Records one dispatch over `count` rays with these push constants.
+    fn dispatch(
+        &mut self,
+        (pipeline, layout, set): (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet),
+        deadline: Instant,
+        push: [u32; 3],
+    ) -> Result<Option<f64>> {
+        let groups = (push[0] as usize).div_ceil(WORKGROUP) as u32;
+        self.submitter.run(deadline, self.timeout, |d, cmd| {
+            // SAFETY: the pipeline, its layout and set are alive and bound
+            // to buffers sized for a full tile.
+            unsafe {
+                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+                d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
+                d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&push));
+                d.cmd_dispatch(cmd, groups, 1, 1);
+            }
+        })
+    }
+
+    /// The forward bound of `method` (a Taylor method) for each query: a
+    /// ray with `t0` in `o.w` and `t1` in `d.w`.
+    pub fn probe_bounds(&mut self, method: Method, queries: &[GpuRay]) -> Result<Vec<GpuBound>> {
+        if !matches!(method, Method::LinearTaylor | Method::QuadraticTaylor) {
+            bail!("{method} has no inclusion function to probe");
+        }
+        let deadline = Instant::now() + self.timeout;
+        let handles = self.pipeline(EntryPoint::BoundsProbe, method)?;
+        let mut out = Vec::with_capacity(queries.len());
+        for tile in queries.chunks(TILE_RAYS) {
+            self.rays.write(0, tile)?;
+            self.dispatch(handles, deadline, [tile.len() as u32, 0, 0])?;
+            out.extend(self.results.read::<GpuBound>(0, tile.len())?);
+        }
+        Ok(out)
     }
 
     /// Marches `rays` with `method`, one tile per submission, each tile in
@@ -210,32 +264,22 @@ impl Renderer {
     /// `progress` gets the number of rays done after each tile.
     pub fn march(&mut self, method: Method, rays: &[GpuRay], mut progress: impl FnMut(usize)) -> Result<MarchOutput> {
         let deadline = Instant::now() + self.timeout;
-        self.pipeline(method)?;
+        let handles = self.pipeline(EntryPoint::March, method)?;
+        let growth = self.growth.or(self.scene.marching.growth).unwrap_or_else(|| method.default_growth());
+        self.globals.write(0, &[globals(&self.scene, growth)])?;
         let mut results = Vec::with_capacity(rays.len());
         let mut gpu_ns = Some(0.0);
         // Every slice but a ray's last takes `slice_steps` steps.
         let max_slices = self.scene.marching.max_steps / self.slice_steps + 2;
         for tile in rays.chunks(TILE_RAYS) {
             self.rays.write(0, tile)?;
-            let pipeline = &self.pipelines[&method];
-            let (handle, layout, set) = (pipeline.pipeline, pipeline.layout, pipeline.set);
-            let groups = tile.len().div_ceil(WORKGROUP) as u32;
             for slice in 0.. {
                 if slice > max_slices {
                     bail!("rays still marching after {slice} slices of {} steps: a marcher ignores its step budget", self.slice_steps);
                 }
                 self.active.write(0, &[0u32])?;
                 let push: [u32; 3] = [tile.len() as u32, u32::from(slice == 0), self.slice_steps];
-                let ns = self.submitter.run(deadline, self.timeout, |d, cmd| {
-                    // SAFETY: the pipeline, its layout and set are alive and
-                    // bound to buffers sized for a full tile.
-                    unsafe {
-                        d.cmd_bind_pipeline(cmd, ash::vk::PipelineBindPoint::COMPUTE, handle);
-                        d.cmd_bind_descriptor_sets(cmd, ash::vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
-                        d.cmd_push_constants(cmd, layout, ash::vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&push));
-                        d.cmd_dispatch(cmd, groups, 1, 1);
-                    }
-                })?;
+                let ns = self.dispatch(handles, deadline, push)?;
                 gpu_ns = gpu_ns.zip(ns).map(|(a, b)| a + b);
                 if self.active.read::<u32>(0, 1)?[0] == 0 {
                     break;

@@ -70,11 +70,15 @@ pub struct MarchingFile {
     /// Step budget per ray.
     #[serde(default = "default_max_steps")]
     pub max_steps: u32,
+    /// Interval growth k of Algorithm 1 (the next candidate interval is k
+    /// times the last step); default: each method's own.
+    #[serde(default)]
+    pub growth: Option<f64>,
 }
 
 impl Default for MarchingFile {
     fn default() -> Self {
-        MarchingFile { method: default_method(), min_step: default_min_step(), max_steps: default_max_steps() }
+        MarchingFile { method: default_method(), min_step: default_min_step(), max_steps: default_max_steps(), growth: None }
     }
 }
 

@@ -47,6 +47,8 @@ pub struct Marching {
     pub method: Method,
     pub min_step: f64,
     pub max_steps: u32,
+    /// Interval growth k; `None`: the method's default.
+    pub growth: Option<f64>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -251,6 +253,12 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
     if f.marching.max_steps == 0 {
         return Err(c.err("marching.max_steps", "must be at least 1"));
     }
+    let growth = match f.marching.growth {
+        Some(k) if !(k.is_finite() && k >= 1.0) => {
+            return Err(c.err("marching.growth", format!("must be a finite number >= 1, got {k}")));
+        }
+        k => k,
+    };
     let mut lights = Vec::new();
     for (i, l) in f.lights.iter().enumerate() {
         let direction = c.unit(&format!("lights[{i}].direction"), l.direction)?;
@@ -344,7 +352,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         surface: c.color("surface", f.surface)?,
         lights,
         iso,
-        marching: Marching { method, min_step, max_steps: f.marching.max_steps },
+        marching: Marching { method, min_step, max_steps: f.marching.max_steps, growth },
         groups,
         bounds,
     })

@@ -1,0 +1,196 @@
+// Forward inclusion functions along a ray (Sections 4-6). Mirrors
+// src/field/bounds.rs, whose comments carry the derivations.
+//
+// A Bound on [t0, t1] is lo(τ) = v + a_lo τ + b_lo τ² and
+// hi(τ) = v + a_hi τ + b_hi τ², τ = t - t0, exact at t0 (forward).
+#ifndef INCLUSION_GLSL
+#define INCLUSION_GLSL
+
+#include "field.glsl"
+
+const float INFINITY = 3.0e38;
+
+struct Bound {
+    float v;
+    float a_lo, b_lo;
+    float a_hi, b_hi;
+};
+
+struct Taylor {
+    float value, slope, lo, hi;
+};
+
+// (k, k', k'') of the compact kernel w (a - x²/R²)³ at x; inv_r2 = 1/R².
+vec3 compact_derivs(float w, float inv_r2, float a, float x) {
+    float q = a - x * x * inv_r2;
+    if (q <= 0.0) return vec3(0.0);
+    return vec3(w * q * q * q, -6.0 * w * x * q * q * inv_r2, -6.0 * w * q * (a - 5.0 * x * x * inv_r2) * inv_r2);
+}
+
+// (k, k', k'') of the Gaussian amp e^{-α x²} at x.
+vec3 gaussian_derivs(float amp, float alpha, float x) {
+    float k = amp * exp(-alpha * x * x);
+    return vec3(k, -2.0 * alpha * x * k, 2.0 * alpha * (2.0 * alpha * x * x - 1.0) * k);
+}
+
+void widen(inout vec2 r, float v) {
+    r = vec2(min(r.x, v), max(r.y, v));
+}
+
+// Range of k' (QUADRATIC false) or k'' (true) over [x0, x1]: ends plus the
+// roots of the next derivative inside (Appendix A, Eq. 23).
+#define DERIV(d) (QUADRATIC ? d.z : d.y)
+
+Taylor compact_taylor(float w, float inv_r2, float radius, float h2, float x0, float x1, bool QUADRATIC) {
+    Taylor k = Taylor(0.0, 0.0, 0.0, 0.0);
+    float a = 1.0 - h2 * inv_r2;
+    if (a <= 0.0) return k;
+    float l = sqrt(a) * radius;
+    float xa = max(x0, -l);
+    float xb = min(x1, l);
+    if (xa >= xb) return k;       // the support misses the interval: only this test
+    g_evals += 1u;
+    vec3 d0 = compact_derivs(w, inv_r2, a, x0);
+    k.value = d0.x;
+    k.slope = d0.y;
+    vec3 da = compact_derivs(w, inv_r2, a, xa);
+    vec3 db = compact_derivs(w, inv_r2, a, xb);
+    vec2 r = vec2(min(DERIV(da), DERIV(db)), max(DERIV(da), DERIV(db)));
+    if (QUADRATIC) {
+        float c = l * 0.7745966692;            // √(3/5)
+        if (xa < 0.0 && 0.0 < xb) widen(r, compact_derivs(w, inv_r2, a, 0.0).z);
+        if (xa < -c && -c < xb) widen(r, compact_derivs(w, inv_r2, a, -c).z);
+        if (xa < c && c < xb) widen(r, compact_derivs(w, inv_r2, a, c).z);
+    } else {
+        float c = l * 0.4472135955;            // 1/√5
+        if (xa < -c && -c < xb) widen(r, compact_derivs(w, inv_r2, a, -c).y);
+        if (xa < c && c < xb) widen(r, compact_derivs(w, inv_r2, a, c).y);
+    }
+    k.lo = r.x;
+    k.hi = r.y;
+    return k;
+}
+
+Taylor gaussian_taylor(float w, float alpha, float h2, float x0, float x1, bool QUADRATIC) {
+    g_evals += 1u;
+    float amp = w * exp(-alpha * h2);
+    vec3 d0 = gaussian_derivs(amp, alpha, x0);
+    vec3 d1 = gaussian_derivs(amp, alpha, x1);
+    vec2 r = vec2(min(DERIV(d0), DERIV(d1)), max(DERIV(d0), DERIV(d1)));
+    if (QUADRATIC) {
+        float c = sqrt(1.5 / alpha);
+        if (x0 < 0.0 && 0.0 < x1) widen(r, gaussian_derivs(amp, alpha, 0.0).z);
+        if (x0 < -c && -c < x1) widen(r, gaussian_derivs(amp, alpha, -c).z);
+        if (x0 < c && c < x1) widen(r, gaussian_derivs(amp, alpha, c).z);
+    } else {
+        float c = inversesqrt(2.0 * alpha);
+        if (x0 < -c && -c < x1) widen(r, gaussian_derivs(amp, alpha, -c).y);
+        if (x0 < c && c < x1) widen(r, gaussian_derivs(amp, alpha, c).y);
+    }
+    return Taylor(d0.x, d0.y, r.x, r.y);
+}
+
+// One primitive's Taylor data along o + t u on [t0, t1].
+Taylor prim_taylor(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1, bool QUADRATIC) {
+    uint kind = pr.ids.x;
+    Taylor none = Taylor(0.0, 0.0, 0.0, 0.0);
+    if (!kind_enabled(kind)) return none;
+    if (kind == PRIM_COMPACT_PLANE) {
+        // Signed distance s = s0 + σ t: the kernel of s with h = 0,
+        // derivatives in t scaled by σ and σ².
+        float sigma = dot(pr.a.xyz, u);
+        float s0 = dot(pr.a.xyz, o + t0 * u) - pr.a.w;
+        float s1 = dot(pr.a.xyz, o + t1 * u) - pr.a.w;
+        Taylor k = compact_taylor(pr.b.z, pr.b.y, pr.b.x, 0.0, min(s0, s1), max(s0, s1), QUADRATIC);
+        vec3 d0 = compact_derivs(pr.b.z, pr.b.y, 1.0, s0);
+        float scale = QUADRATIC ? sigma * sigma : sigma;
+        float lo = k.lo * scale;
+        float hi = k.hi * scale;
+        return Taylor(d0.x, d0.y * sigma, min(lo, hi), max(lo, hi));
+    }
+    vec3 co = pr.a.xyz - o;
+    float tc = dot(co, u);
+    vec3 wv = co - tc * u;
+    float h2 = dot(wv, wv);
+    if (kind == PRIM_GAUSSIAN_POINT) return gaussian_taylor(pr.b.z, pr.b.y, h2, t0 - tc, t1 - tc, QUADRATIC);
+    return compact_taylor(pr.b.z, pr.b.y, pr.b.x, h2, t0 - tc, t1 - tc, QUADRATIC);
+}
+
+// Max of two forward bounds on [0, len] (Section 5.2, Appendix C): lower is
+// the input with the larger start value; upper is the chord to the larger
+// end (linear) or the Bézier polygon of the larger control points (quadratic).
+Bound max_bound(Bound f, Bound g, float len, bool QUADRATIC) {
+    Bound r;
+    r.v = max(f.v, g.v);
+    float f_end_lo = f.v + len * (f.a_lo + f.b_lo * len);
+    float g_end_lo = g.v + len * (g.a_lo + g.b_lo * len);
+    bool take_f = f.v > g.v || (f.v == g.v && f_end_lo >= g_end_lo);
+    r.a_lo = take_f ? f.a_lo : g.a_lo;
+    r.b_lo = take_f ? f.b_lo : g.b_lo;
+    float end = max(f.v + len * (f.a_hi + f.b_hi * len), g.v + len * (g.a_hi + g.b_hi * len));
+    if (len <= 0.0) {
+        r.a_hi = max(f.a_hi, g.a_hi);
+        r.b_hi = max(f.b_hi, g.b_hi);
+    } else if (QUADRATIC) {
+        float mid = max(f.v + 0.5 * f.a_hi * len, g.v + 0.5 * g.a_hi * len);
+        r.a_hi = 2.0 * (mid - r.v) / len;
+        r.b_hi = (r.v - 2.0 * mid + end) / (len * len);
+    } else {
+        r.a_hi = (end - r.v) / len;
+        r.b_hi = 0.0;
+    }
+    return r;
+}
+
+// Taylor bound of f = max over groups (sums) - iso on [t0, t1].
+Bound field_taylor(vec3 o, vec3 u, float t0, float t1, bool QUADRATIC) {
+    uint n = globals.sizes.x;
+    float len = t1 - t0;
+    Bound best;
+    bool have = false;
+    Taylor s = Taylor(0.0, 0.0, 0.0, 0.0);
+    uint group = 0u;
+    for (uint i = 0u; i <= n; ++i) {
+        bool flush = i == n;
+        GpuPrimitive pr;
+        if (!flush) {
+            pr = prims[i];
+            flush = SC_MULTI_GROUP != 0u && pr.ids.y != group;
+        }
+        if (flush) {
+            Bound b = QUADRATIC
+                ? Bound(s.value, s.slope, 0.5 * s.lo, s.slope, 0.5 * s.hi)      // Eq. 19
+                : Bound(s.value, s.lo, 0.0, s.hi, 0.0);                          // Eq. 13-15
+            best = have ? max_bound(best, b, len, QUADRATIC) : b;
+            have = true;
+            if (i == n) break;
+            s = Taylor(0.0, 0.0, 0.0, 0.0);
+            group = pr.ids.y;
+        }
+        Taylor k = prim_taylor(pr, o, u, t0, t1, QUADRATIC);
+        s.value += k.value;
+        s.slope += k.slope;
+        s.lo += k.lo;
+        s.hi += k.hi;
+    }
+    best.v -= globals.march.x;
+    return best;
+}
+
+// First τ > 0 with -g + A τ + B τ² = 0 (g >= 0), +inf when none; no
+// cancellation: small root 2g/(A + √D), or (√D - A)/2B when A < 0 < B.
+float first_root(float g, float A, float B) {
+    float D = A * A + 4.0 * B * g;
+    if (D < 0.0) return INFINITY;
+    float sD = sqrt(D);
+    if (A >= 0.0) return A + sD > 0.0 ? 2.0 * g / (A + sD) : INFINITY;
+    if (B <= 0.0) return INFINITY;
+    return (sD - A) / (2.0 * B);
+}
+
+// Algorithm 1's next root: of the upper bound outside, of the lower inside.
+float next_root(Bound b) {
+    return b.v < 0.0 ? first_root(-b.v, b.a_hi, b.b_hi) : first_root(b.v, -b.a_lo, -b.b_lo);
+}
+
+#endif

@@ -1,0 +1,238 @@
+//! Forward inclusion functions along a ray, in f64: the mirror of
+//! `shaders/include/inclusion.glsl`, and the oracle its tests compare with.
+//!
+//! A bound on `[t0, t1]` is a pair of quadratics in `τ = t - t0`,
+//! `lo(τ) = v + a_lo τ + b_lo τ²` and `hi(τ) = v + a_hi τ + b_hi τ²`, both
+//! exact at `t0` (forward, Section 4.2) and valid for `τ ∈ [0, t_valid - t0]`.
+//! Linear bounds have `b = 0`.
+//!
+//! Per primitive, the kernel is a function of `x = t - tc` (tc the closest
+//! approach) with `q = x² + h²`; its derivatives' ranges over an interval
+//! come from their values at the ends and at the roots of the next
+//! derivative inside it (Appendix A, Eq. 23):
+//!
+//! ```text
+//! compact, Q = a - x²/R², a = 1 - h²/R², support |x| < l = R√a:
+//!   k' = -6w x Q²/R²              extrema at x = ±l/√5
+//!   k'' = -6w Q (a - 5x²/R²)/R²   extrema at x = 0, ±l√(3/5)
+//! Gaussian, k = A e^{-αx²}, α = s/r², A = w e^{-αh²}:
+//!   k' = -2αx k                   extrema at x = ±1/√(2α)
+//!   k'' = 2α(2αx² - 1) k          extrema at x = 0, ±√(3/(2α))
+//! ```
+//!
+//! Outside the compact support every derivative is 0, and since the
+//! kernel is C² the values at ±l (0) cover that part of the interval.
+
+use glam::DVec3;
+
+use super::{Field, KernelEval, PrimEval};
+
+/// A forward bound on `[t0, t_valid]`; see the module documentation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bound {
+    pub v: f64,
+    pub a_lo: f64,
+    pub b_lo: f64,
+    pub a_hi: f64,
+    pub b_hi: f64,
+    pub t_valid: f64,
+}
+
+impl Bound {
+    pub fn lo(&self, tau: f64) -> f64 {
+        self.v + tau * (self.a_lo + self.b_lo * tau)
+    }
+    pub fn hi(&self, tau: f64) -> f64 {
+        self.v + tau * (self.a_hi + self.b_hi * tau)
+    }
+}
+
+/// Which derivative's range a Taylor bound needs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Order {
+    /// Linear Taylor (Eq. 13-15): the range of f'.
+    Linear,
+    /// Quadratic Taylor (Eq. 19): f'(t0) and the range of f''.
+    Quadratic,
+}
+
+/// One primitive along the ray: the value and first derivative at `t0` and
+/// the range of the `order`'s derivative over `[t0, t1]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Taylor {
+    pub value: f64,
+    pub slope: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+/// Kernel derivatives `(k, k', k'')` at `x` for a kernel written in `x`.
+fn compact_derivs(w: f64, inv_r2: f64, a: f64, x: f64) -> (f64, f64, f64) {
+    let q = a - x * x * inv_r2;
+    if q <= 0.0 {
+        return (0.0, 0.0, 0.0);
+    }
+    (w * q * q * q, -6.0 * w * x * q * q * inv_r2, -6.0 * w * q * (a - 5.0 * x * x * inv_r2) * inv_r2)
+}
+
+fn gaussian_derivs(amp: f64, alpha: f64, x: f64) -> (f64, f64, f64) {
+    let k = amp * (-alpha * x * x).exp();
+    (k, -2.0 * alpha * x * k, 2.0 * alpha * (2.0 * alpha * x * x - 1.0) * k)
+}
+
+/// The range of `g` over `[x0, x1]` from the ends and the interior candidates.
+fn range(g: impl Fn(f64) -> f64, x0: f64, x1: f64, candidates: &[f64]) -> (f64, f64) {
+    let (mut lo, mut hi) = (g(x0).min(g(x1)), g(x0).max(g(x1)));
+    for &c in candidates {
+        if c > x0 && c < x1 {
+            let v = g(c);
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    }
+    (lo, hi)
+}
+
+/// A kernel as a function of `x` along the ray: `q = x² + h2`.
+fn kernel_taylor(k: &KernelEval, h2: f64, x0: f64, x1: f64, order: Order) -> Taylor {
+    let pick = |d: (f64, f64, f64)| if order == Order::Linear { d.1 } else { d.2 };
+    if k.gaussian {
+        let alpha = k.inv;
+        let amp = k.weight * (-alpha * h2).exp();
+        let (value, slope, _) = gaussian_derivs(amp, alpha, x0);
+        let c1 = 1.0 / (2.0 * alpha).sqrt();
+        let c2 = (1.5 / alpha).sqrt();
+        let cands: &[f64] = if order == Order::Linear { &[-c1, c1] } else { &[0.0, -c2, c2] };
+        let (min, max) = range(|x| pick(gaussian_derivs(amp, alpha, x)), x0, x1, cands);
+        Taylor { value, slope, min, max }
+    } else {
+        let a = 1.0 - h2 * k.inv;
+        if a <= 0.0 {
+            return Taylor::default();
+        }
+        let l = a.sqrt() * k.scale;
+        let (xa, xb) = (x0.max(-l), x1.min(l));
+        if xa >= xb {
+            return Taylor::default();
+        }
+        let (value, slope, _) = compact_derivs(k.weight, k.inv, a, x0);
+        let c1 = l / 5f64.sqrt();
+        let c2 = l * 0.6f64.sqrt();
+        let cands: &[f64] = if order == Order::Linear { &[-c1, c1] } else { &[0.0, -c2, c2] };
+        let (min, max) = range(|x| pick(compact_derivs(k.weight, k.inv, a, x)), xa, xb, cands);
+        Taylor { value, slope, min, max }
+    }
+}
+
+impl PrimEval {
+    /// Taylor data of this primitive along `o + t u` on `[t0, t1]`.
+    pub fn taylor(&self, o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order) -> Taylor {
+        match *self {
+            PrimEval::Point { center, kernel } => {
+                let co = center - o;
+                let tc = co.dot(u);
+                let h2 = (co - tc * u).length_squared();
+                kernel_taylor(&kernel, h2, t0 - tc, t1 - tc, order)
+            }
+            PrimEval::Plane { normal, offset, kernel } => {
+                // Signed distance s = s0 + σ t: the kernel of s with h = 0,
+                // derivatives in t scaled by σ and σ².
+                let sigma = normal.dot(u);
+                let s0 = normal.dot(o + t0 * u) - offset;
+                let s1 = normal.dot(o + t1 * u) - offset;
+                let (lo, hi) = (s0.min(s1), s0.max(s1));
+                let mut k = kernel_taylor(&kernel, 0.0, lo, hi, order);
+                // kernel_taylor evaluated value/slope at `lo`; redo them at s0.
+                let (value, slope, _) = compact_derivs(kernel.weight, kernel.inv, 1.0, s0);
+                k.value = value;
+                k.slope = slope * sigma;
+                let scale = if order == Order::Linear { sigma } else { sigma * sigma };
+                let (a, b) = (k.min * scale, k.max * scale);
+                k.min = a.min(b);
+                k.max = a.max(b);
+                k
+            }
+        }
+    }
+}
+
+/// The Taylor bound of one group (a sum): per-primitive ranges add.
+pub fn group_taylor(group: &[PrimEval], o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order) -> Bound {
+    let mut s = Taylor::default();
+    for p in group {
+        let k = p.taylor(o, u, t0, t1, order);
+        s.value += k.value;
+        s.slope += k.slope;
+        s.min += k.min;
+        s.max += k.max;
+    }
+    match order {
+        // Eq. 13-15: asymmetric slopes from the range of f'.
+        Order::Linear => Bound { v: s.value, a_lo: s.min, b_lo: 0.0, a_hi: s.max, b_hi: 0.0, t_valid: t1 },
+        // Eq. 19: f(t0) + f'(t0) τ + ½ f''_{min/max} τ².
+        Order::Quadratic => {
+            Bound { v: s.value, a_lo: s.slope, b_lo: 0.5 * s.min, a_hi: s.slope, b_hi: 0.5 * s.max, t_valid: t1 }
+        }
+    }
+}
+
+/// The max of two forward bounds over `[t0, t0 + len]` (Section 5.2 for
+/// linear bounds, Appendix C for quadratic ones). Lower: the input with the
+/// larger start value. Upper: for linear inputs the chord to the larger end
+/// value; for quadratic ones the Bézier control polygon whose points are the
+/// larger of the inputs' control points (valid since Bernstein weights are
+/// non-negative, and exact at t0).
+pub fn max_bound(f: &Bound, g: &Bound, len: f64, quadratic: bool) -> Bound {
+    let v = f.v.max(g.v);
+    let lower = if f.v > g.v || (f.v == g.v && f.lo(len) >= g.lo(len)) { f } else { g };
+    let end = f.hi(len).max(g.hi(len));
+    let (a_hi, b_hi) = if len <= 0.0 {
+        (f.a_hi.max(g.a_hi), f.b_hi.max(g.b_hi))
+    } else if quadratic {
+        let mid = (f.v + 0.5 * f.a_hi * len).max(g.v + 0.5 * g.a_hi * len);
+        (2.0 * (mid - v) / len, (v - 2.0 * mid + end) / (len * len))
+    } else {
+        ((end - v) / len, 0.0)
+    };
+    Bound { v, a_lo: lower.a_lo, b_lo: lower.b_lo, a_hi, b_hi, t_valid: f.t_valid.min(g.t_valid) }
+}
+
+/// The Taylor bound of the whole field minus iso: per group, then the max
+/// of groups (the paper's mixed methods on a max scene, Table 3).
+pub fn field_taylor(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order) -> Bound {
+    let mut out: Option<Bound> = None;
+    for g in &field.groups {
+        let b = group_taylor(g, o, u, t0, t1, order);
+        out = Some(match out {
+            None => b,
+            Some(prev) => max_bound(&prev, &b, t1 - t0, order == Order::Quadratic),
+        });
+    }
+    let mut b = out.expect("a field has at least one group");
+    b.v -= field.iso;
+    b
+}
+
+/// The first `τ > 0` where `-g + A τ + B τ² = 0`, for `g >= 0`; infinity
+/// when there is none. Written without cancellation: the small root is
+/// `2g / (A + √D)`, and for `A < 0 < B` the far root `(√D - A) / 2B`.
+pub fn first_root(g: f64, a: f64, b: f64) -> f64 {
+    let d = a * a + 4.0 * b * g;
+    if d < 0.0 {
+        return f64::INFINITY;
+    }
+    let sd = d.sqrt();
+    if a >= 0.0 {
+        return if a + sd > 0.0 { 2.0 * g / (a + sd) } else { f64::INFINITY };
+    }
+    if b <= 0.0 {
+        return f64::INFINITY;
+    }
+    (sd - a) / (2.0 * b)
+}
+
+/// Where a march from `t0` may step: the first root of the upper bound when
+/// outside (`v < 0`), of the lower bound when inside (Algorithm 1).
+pub fn next_root(b: &Bound) -> f64 {
+    if b.v < 0.0 { first_root(-b.v, b.a_hi, b.b_hi) } else { first_root(b.v, -b.a_lo, -b.b_lo) }
+}
