@@ -85,8 +85,8 @@ fn default_scene_matches_its_golden() {
 }
 
 #[test]
-fn fig10_sphere_and_segment_match_their_goldens() {
-    for method in [Method::Sphere, Method::Segment] {
+fn fig10_every_method_matches_its_goldens() {
+    for &method in Method::ALL {
         let (shaded, heat) = render("fig10.ron", method, 96);
         check_golden(&format!("fig10-{method}-96"), &shaded);
         check_golden(&format!("fig10-{method}-96-steps"), &heat);
