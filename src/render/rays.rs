@@ -12,7 +12,8 @@ use crate::scene::{Aabb, Camera};
 pub const PIXEL_TILE: u32 = 8;
 
 /// A ray as the GPU sees it, in f64 for the reference: the GPU's f32 values
-/// widened, so both march exactly the same ray.
+/// widened, the direction renormalised (it is unit only to f32 precision,
+/// and the along-ray algebra of the bounds assumes |u| = 1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
     pub o: DVec3,
@@ -25,7 +26,7 @@ impl Ray {
     pub fn from_gpu(r: &GpuRay) -> Ray {
         Ray {
             o: DVec3::new(r.o[0].into(), r.o[1].into(), r.o[2].into()),
-            d: DVec3::new(r.d[0].into(), r.d[1].into(), r.d[2].into()),
+            d: DVec3::new(r.d[0].into(), r.d[1].into(), r.d[2].into()).normalize_or_zero(),
             t0: r.o[3].into(),
             t1: r.d[3].into(),
         }

@@ -1,0 +1,284 @@
+//! Proof of the forward inclusion functions: on the GPU (bounds probe) and
+//! on the f64 mirror, with the same cases, each bound is exact at t0 and
+//! contains dense f64 samples of the field over its interval; the GPU's
+//! Taylor bounds equal the f64 closed forms.
+
+mod common;
+
+use common::*;
+use glam::DVec3;
+use isomarch::field::bounds::{Bound, Order, field_taylor};
+use isomarch::field::Field;
+use isomarch::layout::GpuRay;
+use isomarch::render::Renderer;
+use isomarch::render::rays::{Ray, protocol_rays};
+use isomarch::scene::{Aabb, Primitive, Scene};
+use isomarch::Method;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+const TAYLOR: [(Method, Order); 2] = [(Method::LinearTaylor, Order::Linear), (Method::QuadraticTaylor, Order::Quadratic)];
+
+/// `(ray, t0, t1)` queries drawn where the field varies: on protocol rays,
+/// t0 uniform on the ray's interval, t1 a random length further; queries
+/// that meet no support are kept only up to a third of the set.
+fn cases(scene: &Scene, seed: u64, n: usize) -> Vec<GpuRay> {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let mut out = Vec::new();
+    let mut away = 0;
+    for r in protocol_rays(&scene.bounds, 50 * n, seed) {
+        let ray = Ray::from_gpu(&r);
+        if ray.misses() || out.len() == n {
+            continue;
+        }
+        let t0 = rng.random_range(ray.t0..=ray.t1);
+        let t1 = (t0 + rng.random_range(0.0..=4.0) * rng.random::<f64>()).min(ray.t1);
+        let q = GpuRay { o: [r.o[0], r.o[1], r.o[2], t0 as f32], d: [r.d[0], r.d[1], r.d[2], t1 as f32] };
+        if !meets_support(scene, &q) {
+            if 3 * away >= out.len() {
+                continue;
+            }
+            away += 1;
+        }
+        out.push(q);
+    }
+    assert_eq!(out.len(), n, "too few queries");
+    out
+}
+
+/// Does any compact support, or a Gaussian's bounding radius, meet the query?
+fn meets_support(scene: &Scene, q: &GpuRay) -> bool {
+    let r = Ray::from_gpu(q);
+    scene.primitives().any(|p| match p {
+        Primitive::Point { center, kernel } => {
+            let tc = (*center - r.o).dot(r.d).clamp(r.t0, r.t1);
+            (r.o + tc * r.d - *center).length() < kernel.cutoff(scene.iso)
+        }
+        Primitive::Plane { .. } => true,
+    })
+}
+
+struct Checked {
+    worst_forward: f64,
+    worst_outside: f64,
+}
+
+/// Checks forward and containment for `bounds` on `queries`; errors are
+/// relative to `scale` (the largest kernel weight sum of a group).
+fn check(field: &Field, queries: &[GpuRay], bounds: &[Bound], scale: f64) -> Checked {
+    let mut c = Checked { worst_forward: 0.0, worst_outside: 0.0 };
+    for (q, b) in queries.iter().zip(bounds) {
+        let r = Ray::from_gpu(q);
+        for x in [b.v, b.a_lo, b.b_lo, b.a_hi, b.b_hi] {
+            assert!(x.is_finite(), "non-finite bound {b:?} on {r:?}");
+        }
+        let f0 = field.value(r.o + r.t0 * r.d);
+        c.worst_forward = c.worst_forward.max((b.v - f0).abs() / scale);
+        let len = (b.t_valid - r.t0).max(0.0);
+        for i in 0..=200 {
+            let tau = len * f64::from(i) / 200.0;
+            let f = field.value(r.o + (r.t0 + tau) * r.d);
+            let outside = (b.lo(tau) - f).max(f - b.hi(tau)).max(0.0);
+            c.worst_outside = c.worst_outside.max(outside / scale);
+        }
+    }
+    c
+}
+
+fn scale(scene: &Scene) -> f64 {
+    Field::new(scene).groups.iter().map(|g| g.iter().map(|p| p.kernel().weight).sum::<f64>()).fold(0.0, f64::max)
+}
+
+fn gpu_bounds(r: &mut Renderer, method: Method, queries: &[GpuRay]) -> Vec<Bound> {
+    r.probe_bounds(method, queries)
+        .unwrap()
+        .iter()
+        .map(|g| Bound {
+            v: g.lo[0].into(),
+            a_lo: g.lo[1].into(),
+            b_lo: g.lo[2].into(),
+            a_hi: g.hi[1].into(),
+            b_hi: g.hi[2].into(),
+            t_valid: g.lo[3].into(),
+        })
+        .collect()
+}
+
+fn f64_bounds(field: &Field, order: Order, queries: &[GpuRay]) -> Vec<Bound> {
+    queries
+        .iter()
+        .map(|q| {
+            let r = Ray::from_gpu(q);
+            field_taylor(field, r.o, r.d, r.t0, r.t1, order)
+        })
+        .collect()
+}
+
+/// A plane slab with blobs above it, like fig16.
+fn plane_scene() -> Scene {
+    let mut s = scene(
+        vec![vec![
+            Primitive::Plane { normal: DVec3::Y, offset: 0.0, radius: 1.0, weight: 1.0 },
+            compact(DVec3::new(0.0, 1.5, 0.0), 2.0),
+            gaussian(DVec3::new(1.5, 1.0, 0.5), 1.0, 2.0, 0.5),
+        ]],
+        0.5,
+        Method::QuadraticTaylor,
+        1e-3,
+    );
+    s.bounds = Aabb { min: DVec3::new(-4.0, -1.5, -4.0), max: DVec3::new(4.0, 4.0, 4.0) };
+    s
+}
+
+fn all_scenes() -> Vec<(String, Scene)> {
+    let mut v: Vec<(String, Scene)> = (0..3u64)
+        .flat_map(|seed| [false, true].map(|max| (format!("seed {seed} max={max}"), random_scene(seed, max, Method::QuadraticTaylor))))
+        .collect();
+    v.push(("plane".into(), plane_scene()));
+    v
+}
+
+#[test]
+fn taylor_bounds_are_forward_and_contain_the_field_on_gpu_and_f64() {
+    let ctx = gpu();
+    for (name, s) in all_scenes() {
+        let field = Field::new(&s);
+        let queries = cases(&s, 11, 400);
+        let meeting = queries.iter().filter(|q| meets_support(&s, q)).count();
+        assert!(2 * meeting >= queries.len(), "{name}: only {meeting} of {} queries meet a support", queries.len());
+        let mut renderer = Renderer::new(&ctx, &s).unwrap();
+        let sc = scale(&s);
+        for (method, order) in TAYLOR {
+            let exact = check(&field, &queries, &f64_bounds(&field, order, &queries), sc);
+            assert!(exact.worst_forward < 1e-12, "{name} {method} f64: forward error {:e}", exact.worst_forward);
+            // Dense samples of an exact bound may touch it; f64 rounding only.
+            assert!(exact.worst_outside < 1e-9, "{name} {method} f64: a sample lies {:e} outside", exact.worst_outside);
+            let gpu = check(&field, &queries, &gpu_bounds(&mut renderer, method, &queries), sc);
+            // f32: a few ulps of the field's scale, amplified along τ.
+            assert!(gpu.worst_forward < 2e-6, "{name} {method} GPU: forward error {:e}", gpu.worst_forward);
+            assert!(gpu.worst_outside < 2e-5, "{name} {method} GPU: a sample lies {:e} outside", gpu.worst_outside);
+        }
+    }
+    assert_no_validation(&ctx);
+}
+
+#[test]
+fn gpu_taylor_bounds_equal_the_f64_closed_forms() {
+    let ctx = gpu();
+    let mut kept = Vec::new();
+    for (name, s) in all_scenes() {
+        let field = Field::new(&s);
+        let queries = cases(&s, 5, 300);
+        let mut renderer = Renderer::new(&ctx, &s).unwrap();
+        let sc = scale(&s);
+        for (method, order) in TAYLOR {
+            let g = gpu_bounds(&mut renderer, method, &queries);
+            let e = f64_bounds(&field, order, &queries);
+            for ((q, g), e) in queries.iter().zip(&g).zip(&e) {
+                let len = f64::from(q.d[3] - q.o[3]).max(1e-3);
+                // Compare the bounds' values across the interval, relative
+                // to the field's scale.
+                for tau in [0.0, 0.5 * len, len] {
+                    let dl = (g.lo(tau) - e.lo(tau)).abs();
+                    let dh = (g.hi(tau) - e.hi(tau)).abs();
+                    assert!(dl.max(dh) < 1e-4 * sc * (1.0 + len * len), "{name} {method}: GPU {g:?} vs f64 {e:?} at τ={tau}");
+                }
+                let requested = f64::from(q.d[3] - q.o[3]);
+                if requested > 0.0 {
+                    kept.push((e.t_valid - f64::from(q.o[3])) / requested);
+                }
+            }
+        }
+    }
+    let mean = kept.iter().sum::<f64>() / kept.len() as f64;
+    // Taylor bounds need no validity interval: the whole interval is kept.
+    println!("mean fraction of the requested interval kept: {mean:.4}");
+    assert!(mean > 0.999, "Taylor bounds kept only {mean} of their intervals");
+    assert_no_validation(&ctx);
+}
+
+/// The closed-form per-primitive derivative ranges equal the ranges of
+/// densely sampled derivatives (tightness of Appendix A's candidates).
+#[test]
+fn taylor_derivative_ranges_are_tight() {
+    let s = random_scene(7, false, Method::QuadraticTaylor);
+    let field = Field::new(&s);
+    let h = 1e-4;
+    for q in cases(&s, 3, 200) {
+        let r = Ray::from_gpu(&q);
+        if r.t1 - r.t0 < 0.05 {
+            continue;
+        }
+        for p in field.groups.iter().flatten() {
+            let at = |t: f64| p.value(r.o + t * r.d);
+            for order in [Order::Linear, Order::Quadratic] {
+                let k = p.taylor(r.o, r.d, r.t0, r.t1, order);
+                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                for i in 0..=2000 {
+                    let t = r.t0 + (r.t1 - r.t0) * f64::from(i) / 2000.0;
+                    let d = match order {
+                        Order::Linear => (at(t + h) - at(t - h)) / (2.0 * h),
+                        Order::Quadratic => (at(t + h) - 2.0 * at(t) + at(t - h)) / (h * h),
+                    };
+                    lo = lo.min(d);
+                    hi = hi.max(d);
+                }
+                let width = (k.max - k.min).max(1e-6);
+                assert!(k.min <= lo + 1e-3 * width + 1e-6 && k.max >= hi - 1e-3 * width - 1e-6, "{order:?} range [{}, {}] misses sampled [{lo}, {hi}]", k.min, k.max);
+                // Sampling on a 2000-point grid sees the extrema to within
+                // a small fraction of the width.
+                assert!(k.min >= lo - 0.02 * width - 1e-6 && k.max <= hi + 0.02 * width + 1e-6, "{order:?} range [{}, {}] wider than sampled [{lo}, {hi}]", k.min, k.max);
+            }
+        }
+    }
+}
+
+#[test]
+fn degenerate_queries_give_finite_bounds_and_marches_end() {
+    let ctx = gpu();
+    let iso = 0.5;
+    let r = 2.0;
+    let radius = r * (1.0 - f64::cbrt(iso)).sqrt();
+    // Two coincident blobs and a third exactly on the first's support edge.
+    let s = scene(
+        vec![vec![compact(DVec3::ZERO, r), compact(DVec3::ZERO, r), compact(DVec3::new(2.0 * r, 0.0, 0.0), r)]],
+        iso,
+        Method::QuadraticTaylor,
+        1e-4,
+    );
+    let ray = |o: DVec3, d: DVec3, t0: f64, t1: f64| GpuRay {
+        o: [o.x as f32, o.y as f32, o.z as f32, t0 as f32],
+        d: [d.x as f32, d.y as f32, d.z as f32, t1 as f32],
+    };
+    let lone_radius = 2.0 * r * (1.0 - f64::cbrt(iso / 2.0)).sqrt();
+    let queries = vec![
+        ray(DVec3::new(0.0, radius, -5.0), DVec3::Z, 0.0, 10.0),      // tangent to one blob's sphere
+        ray(DVec3::new(0.0, lone_radius, -5.0), DVec3::Z, 0.0, 10.0), // tangent to the doubled blob
+        ray(DVec3::new(0.0, 0.0, -lone_radius), DVec3::Z, 0.0, 5.0),  // starts on the surface
+        ray(DVec3::new(0.0, 0.0, -5.0), DVec3::Z, 3.0, 3.0),          // zero-length interval
+        ray(DVec3::new(-r, 0.0, -5.0), DVec3::Z, 5.0, 8.0),           // t0 on a support boundary
+        ray(DVec3::new(r, 0.0, 0.0), DVec3::X, 0.0, 4.0),             // along the axis through the edge blob
+        ray(DVec3::new(0.0, 0.0, 0.0), DVec3::X, 0.0, 0.0),           // zero-length at a centre
+    ];
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    let field = Field::new(&s);
+    for &(method, order) in &TAYLOR {
+        let g = gpu_bounds(&mut renderer, method, &queries);
+        let e = f64_bounds(&field, order, &queries);
+        for (b, q) in g.iter().chain(&e).zip(queries.iter().cycle()) {
+            for x in [b.v, b.a_lo, b.b_lo, b.a_hi, b.b_hi] {
+                assert!(x.is_finite(), "{method}: non-finite bound {b:?} for {q:?}");
+            }
+        }
+    }
+    for &method in Method::ALL {
+        let out = renderer.march(method, &queries, |_| {}).unwrap();
+        for (res, q) in out.results.iter().zip(&queries) {
+            assert!(res.hit.iter().all(|x| x.is_finite()), "{method}: NaN result {res:?} for {q:?}");
+            assert_eq!(res.counts[3] & isomarch::layout::FLAG_OUT_OF_STEPS, 0, "{method}: ran out of steps on {q:?}");
+        }
+        // The ray starting on the surface hits at once.
+        assert_eq!(out.results[2].counts[3] & isomarch::layout::FLAG_HIT, isomarch::layout::FLAG_HIT, "{method}");
+    }
+    assert_no_validation(&ctx);
+}
