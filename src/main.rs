@@ -10,8 +10,8 @@ use clap::{Args, Parser, Subcommand};
 
 use isomarch::gpu::{Context, ContextOptions, GpuError, list_devices};
 use isomarch::method::{Method, parse_list};
-use isomarch::output::{Aov, write_atomic};
-use isomarch::render::offscreen::{RenderJob, render_to_files};
+use isomarch::output::{self, Aov, png_bytes, write_atomic};
+use isomarch::render::offscreen::{RenderJob, render_frame, render_to_files};
 use isomarch::scene::Scene;
 use isomarch::bench;
 
@@ -106,6 +106,16 @@ enum Command {
         /// Also write the report as JSON.
         #[arg(long, value_name = "FILE")]
         json: Option<PathBuf>,
+        /// Also render the scene's camera view with each method and write
+        /// their step heatmaps side by side on one scale (like Figure 10).
+        #[arg(long, value_name = "PNG")]
+        heatmap_grid: Option<PathBuf>,
+        /// Image size of each heatmap panel.
+        #[arg(long, value_parser = parse_size, default_value = "256x256")]
+        size: (u32, u32),
+        /// Top of the shared heatmap scale (default 75, as in the paper).
+        #[arg(long, default_value_t = 75)]
+        steps_max: u32,
         #[command(flatten)]
         march: MarchArgs,
         #[command(flatten)]
@@ -201,7 +211,7 @@ fn run(cli: Cli) -> Result<()> {
             );
             check_validation(&ctx)
         }
-        Command::Bench { scene, methods, rays, seed, json, march, gpu } => {
+        Command::Bench { scene, methods, rays, seed, json, heatmap_grid, size, steps_max, march, gpu } => {
             let methods = parse_list(&methods).map_err(anyhow::Error::msg).context("--methods")?;
             if rays == 0 {
                 bail!("--rays must be at least 1");
@@ -212,6 +222,28 @@ fn run(cli: Cli) -> Result<()> {
             print!("{}", bench::markdown(&report));
             if let Some(path) = json {
                 write_atomic(&path, &serde_json::to_vec_pretty(&report)?)?;
+            }
+            if let Some(path) = heatmap_grid {
+                let mut panels = Vec::new();
+                for &method in &methods {
+                    let job = RenderJob {
+                        scene: scene.clone(),
+                        method,
+                        width: size.0,
+                        height: size.1,
+                        output: PathBuf::new(),
+                        heatmap: None,
+                        steps_max: None,
+                        aovs: vec![],
+                        aov_output: None,
+                        stats: None,
+                        timeout,
+                    };
+                    let (frame, _) = render_frame(&ctx, &job)?;
+                    panels.push((method.to_string(), frame.steps()));
+                }
+                let grid = output::heatmap_grid(size.0, size.1, &panels, Some(steps_max));
+                write_atomic(&path, &png_bytes(&grid)?)?;
             }
             check_validation(&ctx)
         }

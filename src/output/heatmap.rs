@@ -60,3 +60,22 @@ pub fn heatmap_image(width: u32, height: u32, steps: &[u32], steps_max: Option<u
     }
     img
 }
+
+/// Step heatmaps of several methods side by side on one shared scale, each
+/// titled with its name and mean steps (the paper's Figure 10 layout).
+/// `panels` holds `(title, steps)` for `width` x `height` images.
+pub fn heatmap_grid(width: u32, height: u32, panels: &[(String, Vec<u32>)], steps_max: Option<u32>) -> RgbImage {
+    let max = steps_max.unwrap_or_else(|| panels.iter().flat_map(|(_, s)| s.iter().copied()).max().unwrap_or(1));
+    const TITLE: u32 = 12;
+    let gap = 4;
+    let cell_w = width + gap;
+    let mut grid = RgbImage::from_pixel(cell_w * panels.len() as u32, height + LEGEND_HEIGHT + TITLE, Rgb([20, 20, 24]));
+    for (i, (title, steps)) in panels.iter().enumerate() {
+        let panel = heatmap_image(width, height, steps, Some(max));
+        let x0 = i as u32 * cell_w;
+        image::imageops::replace(&mut grid, &panel, i64::from(x0), i64::from(TITLE));
+        let mean = steps.iter().map(|&s| f64::from(s)).sum::<f64>() / steps.len().max(1) as f64;
+        draw_text(&mut grid, i64::from(x0) + 2, 2, &format!("{title} {mean:.1}"));
+    }
+    grid
+}

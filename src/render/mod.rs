@@ -43,19 +43,34 @@ const LOOP_BUDGET: usize = 32_768;
 /// Refinement runs at most 64 bisection steps.
 const REFINE_ITERATIONS: usize = 64;
 
+/// The most primitives one marching step can visit within the loop budget.
+pub fn max_primitives() -> usize {
+    (LOOP_BUDGET - (REFINE_ITERATIONS + 2) - 4) / (REFINE_ITERATIONS + 4)
+}
+
 /// Marching steps per slice for a scene of `primitives` primitives: each
 /// step loops over the primitives about twice (bound and value), and the
 /// last one may also refine and shade.
 pub fn slice_steps(primitives: usize) -> Result<u32> {
     let fixed = (REFINE_ITERATIONS + 2) * (primitives + 1);
     let per_step = 2 * primitives + 4;
-    if fixed + per_step > LOOP_BUDGET {
+    if primitives > max_primitives() {
         bail!(
             "{primitives} primitives are more than one marching step can visit within the per-dispatch loop budget ({LOOP_BUDGET} iterations); at most {} are supported until an acceleration structure exists",
-            LOOP_BUDGET / (REFINE_ITERATIONS + 5) - 1
+            max_primitives()
         );
     }
     Ok(((LOOP_BUDGET - fixed) / per_step) as u32)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn slices_fit_the_loop_budget_up_to_the_primitive_limit() {
+        let n = super::max_primitives();
+        assert!(super::slice_steps(n).unwrap() >= 1);
+        assert!(super::slice_steps(n + 1).is_err());
+    }
 }
 
 
