@@ -65,3 +65,38 @@ fn a_passed_deadline_is_reported_and_the_process_exits() {
     // Generous: parallel tests share two cores.
     assert!(elapsed < Duration::from_secs(60), "took {elapsed:?} to give up");
 }
+
+#[test]
+fn render_writes_image_heatmap_exr_and_stats() {
+    let dir = scratch("render-outputs");
+    let run = Command::new(bin())
+        .args(["render", "scenes/default.ron", "--size", "48x40", "--method", "quadratic-taylor", "--steps-max", "75"])
+        .args(["--aov", "depth,steps,normal", "--validation", "-o"])
+        .arg(dir.join("img.png"))
+        .arg("--heatmap")
+        .arg(dir.join("steps.png"))
+        .arg("--stats")
+        .arg(dir.join("stats.json"))
+        .current_dir(repo_root())
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let img = image::open(dir.join("img.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (48, 40));
+    let heat = image::open(dir.join("steps.png")).unwrap();
+    assert_eq!(heat.width(), 48);
+    assert!(heat.height() > 40, "the heatmap has no legend");
+    let stats: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["method"], "quadratic-taylor");
+    assert_eq!(stats["rays"], 48 * 40);
+    assert!(stats["steps_per_ray"].as_f64().unwrap() > 1.0);
+    let exr = exr::prelude::read_all_flat_layers_from_file(dir.join("img.exr")).unwrap();
+    let names: Vec<String> = exr.layer_data[0].channel_data.list.iter().map(|c| c.name.to_string()).collect();
+    for want in ["Z", "steps", "normal.X", "normal.Y", "normal.Z"] {
+        assert!(names.iter().any(|n| n == want), "channel {want} missing from {names:?}");
+    }
+    let hit_rate = stats["hit_rate"].as_f64().unwrap();
+    let z = &exr.layer_data[0].channel_data.list.iter().find(|c| c.name.to_string() == "Z").unwrap().sample_data;
+    let finite = z.values_as_f32().filter(|v| v.is_finite()).count();
+    assert_eq!(finite, (hit_rate * 48.0 * 40.0).round() as usize, "depth is finite exactly where rays hit");
+}
