@@ -16,6 +16,6 @@ void main() {
     GpuRay q = rays[i];
     float t0 = q.o.w;
     float t1 = q.d.w;
-    Bound b = field_taylor(q.o.xyz, q.d.xyz, t0, t1, SC_METHOD == METHOD_QUADRATIC_TAYLOR);
+    Bound b = method_bound(q.o.xyz, q.d.xyz, t0, t1);
     bounds[i] = GpuBound(vec4(b.v, b.a_lo, b.b_lo, t1), vec4(b.v, b.a_hi, b.b_hi, 0.0));
 }

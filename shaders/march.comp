@@ -24,13 +24,17 @@ void main() {
     } else {
         GpuMarchState s = states[i];
         if ((s.n.w & FLAG_DONE) != 0u) return;
-        m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w);
+        m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w, s.node.x, s.node.y);
         g_evals = s.n.y;
     }
     for (uint k = 0u; k < push.slice_steps && (m.flags & FLAG_DONE) == 0u; ++k) {
-        march_step(o, u, ray.d.w, m);
+        if (SC_METHOD == METHOD_LINEAR_BISECTION) {
+            bisection_step(o, u, ray.o.w, ray.d.w, m);
+        } else {
+            march_step(o, u, ray.d.w, m);
+        }
     }
-    states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, 0.0), uvec4(m.steps, g_evals, m.refine_evals, m.flags));
+    states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, 0.0), uvec4(m.steps, g_evals, m.refine_evals, m.flags), uvec4(m.depth, m.index, 0u, 0u));
     if ((m.flags & FLAG_DONE) == 0u) {
         atomicAdd(active_rays, 1u);
         return;

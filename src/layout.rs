@@ -71,8 +71,9 @@ gpu_structs! {
 
     /// A ray's marching state between dispatches (see `render::Renderer::march`):
     /// `v`: t, the previous point t_prev, candidate interval length, reserved;
-    /// `n`: steps, kernel evaluations, refinement evaluations, flags.
-    struct GpuMarchState { v: Vec4, n: UVec4 }
+    /// `n`: steps, kernel evaluations, refinement evaluations, flags;
+    /// `node`: the bisection methods' current sub-interval (depth, index).
+    struct GpuMarchState { v: Vec4, n: UVec4, node: UVec4 }
 
     /// Scene-wide constants. `march`: x iso, y minimum step, z refinement
     /// tolerance, w global Lipschitz bound (sphere tracing).
@@ -102,6 +103,8 @@ pub const METHOD_SPHERE: u32 = 0;
 pub const METHOD_SEGMENT: u32 = 1;
 pub const METHOD_LINEAR_TAYLOR: u32 = 2;
 pub const METHOD_QUADRATIC_TAYLOR: u32 = 3;
+pub const METHOD_LINEAR: u32 = 4;
+pub const METHOD_LINEAR_BISECTION: u32 = 5;
 
 /// Specialization constants as `(constant_id, name)`; all are `uint`.
 /// `SC_HAS_*` are 0 or 1: a pipeline keeps only the code paths its scene uses.
@@ -120,6 +123,8 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("METHOD_SEGMENT", METHOD_SEGMENT),
     ("METHOD_LINEAR_TAYLOR", METHOD_LINEAR_TAYLOR),
     ("METHOD_QUADRATIC_TAYLOR", METHOD_QUADRATIC_TAYLOR),
+    ("METHOD_LINEAR", METHOD_LINEAR),
+    ("METHOD_LINEAR_BISECTION", METHOD_LINEAR_BISECTION),
     ("PRIM_COMPACT_POINT", PRIM_COMPACT_POINT),
     ("PRIM_GAUSSIAN_POINT", PRIM_GAUSSIAN_POINT),
     ("PRIM_COMPACT_PLANE", PRIM_COMPACT_PLANE),

@@ -17,10 +17,22 @@ pub enum Method {
     LinearTaylor,
     /// Quadratic Taylor forward bounds (Section 6.1, Eq. 19).
     QuadraticTaylor,
+    /// Bottom-up linear forward bounds (Section 5.2) marched by Algorithm 1.
+    Linear,
+    /// The same bounds with bisection and interval pruning, the paper's
+    /// baseline (Figure 10 f).
+    LinearBisection,
 }
 
 impl Method {
-    pub const ALL: &'static [Method] = &[Method::Sphere, Method::Segment, Method::LinearTaylor, Method::QuadraticTaylor];
+    pub const ALL: &'static [Method] = &[
+        Method::Sphere,
+        Method::Segment,
+        Method::LinearTaylor,
+        Method::QuadraticTaylor,
+        Method::Linear,
+        Method::LinearBisection,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -28,16 +40,20 @@ impl Method {
             Method::Segment => "segment",
             Method::LinearTaylor => "linear-taylor",
             Method::QuadraticTaylor => "quadratic-taylor",
+            Method::Linear => "linear",
+            Method::LinearBisection => "linear-bisection",
         }
     }
 
     /// Algorithm 1's interval growth k: the next candidate interval is k
     /// times the last step. Segment tracing's 1.5 is pinned by
-    /// BENCHMARKS.md; the others use the paper's k = 2.
+    /// BENCHMARKS.md; linear Taylor takes 3, the best of the sweep in the
+    /// README (`scripts/growth-sweep.sh`); the others the paper's k = 2.
     pub fn default_growth(self) -> f64 {
         match self {
             Method::Sphere | Method::Segment => 1.5,
-            Method::LinearTaylor | Method::QuadraticTaylor => 2.0,
+            Method::LinearTaylor => 3.0,
+            Method::QuadraticTaylor | Method::Linear | Method::LinearBisection => 2.0,
         }
     }
 
@@ -48,6 +64,8 @@ impl Method {
             Method::Segment => layout::METHOD_SEGMENT,
             Method::LinearTaylor => layout::METHOD_LINEAR_TAYLOR,
             Method::QuadraticTaylor => layout::METHOD_QUADRATIC_TAYLOR,
+            Method::Linear => layout::METHOD_LINEAR,
+            Method::LinearBisection => layout::METHOD_LINEAR_BISECTION,
         }
     }
 }

@@ -177,6 +177,131 @@ Bound field_taylor(vec3 o, vec3 u, float t0, float t1, bool QUADRATIC) {
     return best;
 }
 
+// Bottom-up linear bounds (Section 5.2): v + lo τ <= f <= v + hi τ on
+// [0, len]. Mirrors `Lin` in src/field/bounds.rs.
+struct Lin {
+    float v, lo, hi;
+};
+
+// Product: the four corner products of the input lines, each bounded by
+// its tangent at 0 and its chord (Eq. 17); the extreme slopes bound all.
+Lin lin_mul(Lin f, Lin g, float len) {
+    float lo = 3.0e38;
+    float hi = -3.0e38;
+    for (int i = 0; i < 2; ++i) {
+        float m = i == 0 ? f.lo : f.hi;
+        for (int j = 0; j < 2; ++j) {
+            float n = j == 0 ? g.lo : g.hi;
+            float c1 = f.v * n + g.v * m;
+            float chord = c1 + m * n * len;
+            lo = min(lo, min(c1, chord));
+            hi = max(hi, max(c1, chord));
+        }
+    }
+    return Lin(f.v * g.v, lo, hi);
+}
+
+// w e^{-y}: decreasing and convex; upper through the chord over the lower
+// input line's range, lower through the tangent at v.
+Lin lin_exp_neg(Lin y, float w, float len) {
+    float v = w * exp(-y.v);
+    float dy = y.lo * len;
+    // exp of at most 88 keeps the chord finite in f32; larger arguments
+    // only make the upper slope larger (the caller clamps it anyway).
+    float chord = abs(dy) > 1e-12 ? w * (exp(min(-(y.v + dy), 88.0)) - exp(-y.v)) / dy : -v;
+    return Lin(v, -v * y.hi, chord * y.lo);
+}
+
+// Compact kernel w (a - x²/R²)³ on [x0, x0 + len], bottom up (Figure 11) on
+// the part inside the support, then extended over the whole interval.
+Lin compact_lin(float w, float inv_r2, float a, float x0, float len) {
+    Lin zero = Lin(0.0, 0.0, 0.0);
+    if (a <= 0.0) return zero;
+    float l = sqrt(a / inv_r2);
+    float xa = max(x0, -l);
+    float xb = min(x0 + len, l);
+    if (xa >= xb) return zero;      // the support misses the interval: only this test
+    g_evals += 1u;
+    float sub = xb - xa;
+    Lin q = Lin(a - xa * xa * inv_r2, -(2.0 * xa + sub) * inv_r2, -2.0 * xa * inv_r2);
+    Lin k = lin_mul(lin_mul(q, q, sub), q, sub);
+    k = Lin(w * k.v, w * k.lo, w * k.hi);
+    if (xa > x0) {
+        float end = max(k.v + k.hi * sub, 0.0);
+        k = Lin(0.0, 0.0, end / (xb - x0));
+    }
+    if (xb < x0 + len && len > 0.0) k.hi = max(k.hi, -k.v / len);
+    return k;
+}
+
+Lin prim_linear(GpuPrimitive pr, vec3 o, vec3 u, float t0, float len) {
+    uint kind = pr.ids.x;
+    if (!kind_enabled(kind)) return Lin(0.0, 0.0, 0.0);
+    if (kind == PRIM_COMPACT_PLANE) {
+        float sigma = dot(pr.a.xyz, u);
+        float s0 = dot(pr.a.xyz, o + t0 * u) - pr.a.w;
+        if (abs(sigma) < 1e-9) {
+            float dummy;
+            float q = s0 * s0;
+            return Lin(q < pr.b.x * pr.b.x ? kernel_value(kind, pr.b, q, dummy) : 0.0, 0.0, 0.0);
+        }
+        return compact_lin(pr.b.z, pr.b.y * sigma * sigma, 1.0, s0 / sigma, len);
+    }
+    vec3 co = pr.a.xyz - o;
+    float tc = dot(co, u);
+    vec3 wv = co - tc * u;
+    float h2 = dot(wv, wv);
+    float x0 = t0 - tc;
+    if (kind == PRIM_GAUSSIAN_POINT) {
+        g_evals += 1u;
+        float alpha = pr.b.y;
+        Lin y = Lin(alpha * (x0 * x0 + h2), 2.0 * alpha * x0, alpha * (2.0 * x0 + len));
+        // Slopes clamped to the kernel's Lipschitz constant (mean value
+        // theorem): the chord of e^{-y} can overflow far from t0.
+        Lin k = lin_exp_neg(y, pr.b.z, len);
+        return Lin(k.v, max(k.lo, -pr.c.x), min(k.hi, pr.c.x));
+    }
+    return compact_lin(pr.b.z, pr.b.y, 1.0 - h2 * pr.b.y, x0, len);
+}
+
+// Bottom-up linear bound of f = max over groups (sums) - iso on [t0, t1].
+Bound field_linear(vec3 o, vec3 u, float t0, float t1) {
+    uint n = globals.sizes.x;
+    float len = t1 - t0;
+    Bound best;
+    bool have = false;
+    Lin s = Lin(0.0, 0.0, 0.0);
+    uint group = 0u;
+    for (uint i = 0u; i <= n; ++i) {
+        bool flush = i == n;
+        GpuPrimitive pr;
+        if (!flush) {
+            pr = prims[i];
+            flush = SC_MULTI_GROUP != 0u && pr.ids.y != group;
+        }
+        if (flush) {
+            Bound b = Bound(s.v, s.lo, 0.0, s.hi, 0.0);
+            best = have ? max_bound(best, b, len, false) : b;
+            have = true;
+            if (i == n) break;
+            s = Lin(0.0, 0.0, 0.0);
+            group = pr.ids.y;
+        }
+        Lin k = prim_linear(pr, o, u, t0, len);
+        s.v += k.v;
+        s.lo += k.lo;
+        s.hi += k.hi;
+    }
+    best.v -= globals.march.x;
+    return best;
+}
+
+// The bound of the specialised inclusion method on [t0, t1].
+Bound method_bound(vec3 o, vec3 u, float t0, float t1) {
+    if (SC_METHOD == METHOD_LINEAR || SC_METHOD == METHOD_LINEAR_BISECTION) return field_linear(o, u, t0, t1);
+    return field_taylor(o, u, t0, t1, SC_METHOD == METHOD_QUADRATIC_TAYLOR);
+}
+
 // First τ > 0 with -g + A τ + B τ² = 0 (g >= 0), +inf when none; no
 // cancellation: small root 2g/(A + √D), or (√D - A)/2B when A < 0 < B.
 float first_root(float g, float A, float B) {

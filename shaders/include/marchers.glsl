@@ -19,6 +19,8 @@ struct March {
     uint steps;
     uint refine_evals;
     uint flags;
+    uint depth;         // bisection: the current node of the binary
+    uint index;         //   subdivision of [tmin, tmax]
 };
 
 // Bisection between a (outside, f < 0) and b (inside, f >= 0) down to the
@@ -34,7 +36,7 @@ float refine_crossing(vec3 o, vec3 u, float a, float b) {
 }
 
 March march_start(float tmin, float tmax) {
-    March m = March(tmin, tmin, tmax - tmin, 0u, 0u, 0u);
+    March m = March(tmin, tmin, tmax - tmin, 0u, 0u, 0u, 0u, 0u);
     if (!(tmax >= tmin)) m.flags = FLAG_DONE;
     return m;
 }
@@ -61,7 +63,7 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
         f = field_and_lipschitz(o, u, m.t, t_end, lambda);   // Eq. 11, BENCHMARKS.md
         step = lambda > 0.0 ? min(abs(f) / lambda, len) : len;
     } else {
-        Bound b = field_taylor(o, u, m.t, t_end, SC_METHOD == METHOD_QUADRATIC_TAYLOR);
+        Bound b = method_bound(o, u, m.t, t_end);
         f = b.v;
         step = min(next_root(b), len);
     }
@@ -87,6 +89,57 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
     m.t = min(m.t + step, tmax);
     if (m.t >= tmax && safe >= tmax - m.t_prev) m.flags |= FLAG_DONE;
     m.window = globals.tuning.x * step;
+}
+
+// Leaves the current bisection node for the next one in front-to-back
+// order: the next sibling, climbing while it was a right child.
+void bisection_advance(inout March m) {
+    m.index += 1u;
+    while (m.depth > 0u && (m.index & 1u) == 0u) {
+        m.index >>= 1u;
+        m.depth -= 1u;
+    }
+    if (m.depth == 0u && m.index >= 1u) m.flags |= FLAG_DONE;
+}
+
+// The paper's interval-arithmetic baseline: bisection of [tmin, tmax] with
+// pruning (Section 7.1, Figure 10 e, f). One step examines one
+// sub-interval: its bound's range excludes 0, it is discarded; below the
+// minimum step, a sign change at its end is a crossing; otherwise it is
+// split and its front half comes next. Stackless: the node is (depth, index).
+void bisection_step(vec3 o, vec3 u, float tmin, float tmax, inout March m) {
+    if (m.steps >= globals.sizes.w) {
+        m.flags |= FLAG_DONE | FLAG_OUT_OF_STEPS;
+        return;
+    }
+    m.steps += 1u;
+    float size = (tmax - tmin) * exp2(-float(m.depth));
+    float a = tmin + float(m.index) * size;
+    float b = min(a + size, tmax);
+    Bound bd = method_bound(o, u, a, b);
+    if (bd.v >= 0.0) {          // f(a) >= 0: only at tmin, a ray starting inside
+        m.t = a;
+        m.flags |= FLAG_DONE | FLAG_HIT;
+        return;
+    }
+    float len = b - a;
+    if (bd.v + max(0.0, bd.a_hi * len) < 0.0) {
+        bisection_advance(m);
+        return;
+    }
+    if (len <= globals.march.y || m.depth >= 30u) {
+        if (field(o + b * u) >= 0.0) {
+            uint before = g_evals;
+            m.t = refine_crossing(o, u, a, b);
+            m.refine_evals += g_evals - before;
+            m.flags |= FLAG_DONE | FLAG_HIT;
+            return;
+        }
+        bisection_advance(m);
+        return;
+    }
+    m.depth += 1u;
+    m.index *= 2u;
 }
 
 #endif

@@ -236,3 +236,141 @@ pub fn first_root(g: f64, a: f64, b: f64) -> f64 {
 pub fn next_root(b: &Bound) -> f64 {
     if b.v < 0.0 { first_root(-b.v, b.a_hi, b.b_hi) } else { first_root(b.v, -b.a_lo, -b.b_lo) }
 }
+
+/// A bottom-up linear bound (Section 5.2): `v + lo τ <= f <= v + hi τ` on
+/// `τ ∈ [0, len]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lin {
+    pub v: f64,
+    pub lo: f64,
+    pub hi: f64,
+}
+
+impl Lin {
+    /// Product (Section 5.2): the four corner products of the input lines
+    /// are quadratics sharing the start value; each is bounded by its
+    /// tangent at 0 and its chord (Eq. 17, which is which depends on the
+    /// sign of its curvature), and the extreme slopes bound them all.
+    pub fn mul(self, g: Lin, len: f64) -> Lin {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for m in [self.lo, self.hi] {
+            for n in [g.lo, g.hi] {
+                let c1 = self.v * n + g.v * m;
+                let chord = c1 + m * n * len;
+                lo = lo.min(c1).min(chord);
+                hi = hi.max(c1).max(chord);
+            }
+        }
+        Lin { v: self.v * g.v, lo, hi }
+    }
+
+    /// `w e^{-y}` of this bound (decreasing, convex): upper from the lower
+    /// input line through the chord of `e^{-y}` over its range, lower from
+    /// the upper input line through the tangent at `v` (Eq. 17).
+    pub fn exp_neg(self, w: f64, len: f64) -> Lin {
+        let v = w * (-self.v).exp();
+        let dy = self.lo * len;
+        let chord = if dy.abs() > 1e-12 { w * ((-(self.v + dy)).exp() - (-self.v).exp()) / dy } else { -v };
+        Lin { v, lo: -v * self.hi, hi: chord * self.lo }
+    }
+
+    pub fn at_lo(&self, tau: f64) -> f64 {
+        self.v + self.lo * tau
+    }
+    pub fn at_hi(&self, tau: f64) -> f64 {
+        self.v + self.hi * tau
+    }
+}
+
+/// The compact kernel `w (a - x²/R²)³` on `x ∈ [x0, x0 + len]` built bottom
+/// up (Figure 11): the exact concave quadratic Q (tangent above, chord
+/// below), then Q·Q·Q, on the part of the interval inside the support; then
+/// extended to the whole interval, where the kernel is 0 outside:
+/// entering late, the line from 0 at x0 through the clipped upper bound's
+/// end value (lower: 0, the kernel is non-negative); leaving early, the
+/// upper slope raised to `-v/len` so the line stays >= 0 past the exit
+/// (the lower line already ends <= 0 at the exit and decreases).
+fn compact_lin(w: f64, inv_r2: f64, a: f64, x0: f64, len: f64) -> Lin {
+    let zero = Lin { v: 0.0, lo: 0.0, hi: 0.0 };
+    if a <= 0.0 {
+        return zero;
+    }
+    let l = (a / inv_r2).sqrt();
+    let (xa, xb) = (x0.max(-l), (x0 + len).min(l));
+    if xa >= xb {
+        return zero;
+    }
+    let sub = xb - xa;
+    let q0 = a - xa * xa * inv_r2;
+    let q = Lin { v: q0, lo: -(2.0 * xa + sub) * inv_r2, hi: -2.0 * xa * inv_r2 };
+    let k = q.mul(q, sub).mul(q, sub);
+    let mut k = Lin { v: w * k.v, lo: w * k.lo, hi: w * k.hi };
+    if xa > x0 {
+        // Entering: the kernel is 0 on [x0, xa].
+        let end = k.at_hi(sub).max(0.0);
+        k = Lin { v: 0.0, lo: 0.0, hi: end / (xb - x0) };
+    }
+    if xb < x0 + len && len > 0.0 {
+        // Leaving: the kernel is 0 on [xb, x0 + len].
+        k.hi = k.hi.max(-k.v / len);
+    }
+    k
+}
+
+impl PrimEval {
+    /// Bottom-up linear bound of this primitive along `o + t u` on
+    /// `[t0, t0 + len]`.
+    pub fn linear(&self, o: DVec3, u: DVec3, t0: f64, len: f64) -> Lin {
+        match *self {
+            PrimEval::Point { center, kernel } => {
+                let co = center - o;
+                let tc = co.dot(u);
+                let h2 = (co - tc * u).length_squared();
+                let x0 = t0 - tc;
+                if kernel.gaussian {
+                    // y = α(x² + h²) is convex: tangent below, chord above.
+                    let y = Lin { v: kernel.inv * (x0 * x0 + h2), lo: 2.0 * kernel.inv * x0, hi: kernel.inv * (2.0 * x0 + len) };
+                    // Far from t0 the chord of e^{-y} over the lower line's
+                    // range can exceed any float; but |f'| never exceeds
+                    // the kernel's Lipschitz constant, so by the mean value
+                    // theorem slopes can be clamped to it (also tighter).
+                    let k = y.exp_neg(kernel.weight, len);
+                    Lin { v: k.v, lo: k.lo.max(-kernel.peak_slope), hi: k.hi.min(kernel.peak_slope) }
+                } else {
+                    compact_lin(kernel.weight, kernel.inv, 1.0 - h2 * kernel.inv, x0, len)
+                }
+            }
+            PrimEval::Plane { normal, offset, kernel } => {
+                // q = s², s = s0 + σ t: the compact kernel in x = s/σ with
+                // 1/R'² = σ²/R² and h = 0.
+                let sigma = normal.dot(u);
+                let s0 = normal.dot(o + t0 * u) - offset;
+                if sigma.abs() < 1e-9 {
+                    return Lin { v: kernel.value(s0 * s0), lo: 0.0, hi: 0.0 };
+                }
+                compact_lin(kernel.weight, kernel.inv * sigma * sigma, 1.0, s0 / sigma, len)
+            }
+        }
+    }
+}
+
+/// Bottom-up linear bound of the field minus iso: sums within groups, the
+/// linear max across groups.
+pub fn field_linear(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64) -> Bound {
+    let len = t1 - t0;
+    let mut out: Option<Bound> = None;
+    for g in &field.groups {
+        let s = g.iter().fold(Lin { v: 0.0, lo: 0.0, hi: 0.0 }, |s, p| {
+            let k = p.linear(o, u, t0, len);
+            Lin { v: s.v + k.v, lo: s.lo + k.lo, hi: s.hi + k.hi }
+        });
+        let b = Bound { v: s.v, a_lo: s.lo, b_lo: 0.0, a_hi: s.hi, b_hi: 0.0, t_valid: t1 };
+        out = Some(match out {
+            None => b,
+            Some(prev) => max_bound(&prev, &b, len, false),
+        });
+    }
+    let mut b = out.expect("a field has at least one group");
+    b.v -= field.iso;
+    b
+}

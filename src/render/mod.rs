@@ -45,15 +45,15 @@ const REFINE_ITERATIONS: usize = 64;
 
 /// The most primitives one marching step can visit within the loop budget.
 pub fn max_primitives() -> usize {
-    (LOOP_BUDGET - (REFINE_ITERATIONS + 2) - 4) / (REFINE_ITERATIONS + 4)
+    (LOOP_BUDGET - (REFINE_ITERATIONS + 2) - 34) / (REFINE_ITERATIONS + 4)
 }
 
 /// Marching steps per slice for a scene of `primitives` primitives: each
-/// step loops over the primitives about twice (bound and value), and the
-/// last one may also refine and shade.
+/// step loops over the primitives about twice (bound and value) plus up to
+/// 30 bisection-tree moves, and the last one may also refine and shade.
 pub fn slice_steps(primitives: usize) -> Result<u32> {
     let fixed = (REFINE_ITERATIONS + 2) * (primitives + 1);
-    let per_step = 2 * primitives + 4;
+    let per_step = 2 * primitives + 34;
     if primitives > max_primitives() {
         bail!(
             "{primitives} primitives are more than one marching step can visit within the per-dispatch loop budget ({LOOP_BUDGET} iterations); at most {} are supported until an acceleration structure exists",
@@ -257,10 +257,10 @@ impl Renderer {
         })
     }
 
-    /// The forward bound of `method` (a Taylor method) for each query: a
+    /// The forward bound of `method` (an inclusion method) for each query: a
     /// ray with `t0` in `o.w` and `t1` in `d.w`.
     pub fn probe_bounds(&mut self, method: Method, queries: &[GpuRay]) -> Result<Vec<GpuBound>> {
-        if !matches!(method, Method::LinearTaylor | Method::QuadraticTaylor) {
+        if matches!(method, Method::Sphere | Method::Segment) {
             bail!("{method} has no inclusion function to probe");
         }
         let deadline = Instant::now() + self.timeout;
