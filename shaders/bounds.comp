@@ -16,6 +16,12 @@ void main() {
     GpuRay q = rays[i];
     float t0 = q.o.w;
     float t1 = q.d.w;
+    if (SC_METHOD == METHOD_RAA) {
+        // Not a forward bound: a range over the whole interval.
+        vec2 r = field_raa(q.o.xyz, q.d.xyz, t0, t1);
+        bounds[i] = GpuBound(vec4(r.x, 0.0, 0.0, t1), vec4(r.y, 0.0, 0.0, 0.0));
+        return;
+    }
     Bound b = method_bound(q.o.xyz, q.d.xyz, t0, t1);
     bounds[i] = GpuBound(vec4(b.v, b.a_lo, b.b_lo, t1), vec4(b.v, b.a_hi, b.b_hi, 0.0));
 }

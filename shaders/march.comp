@@ -28,7 +28,7 @@ void main() {
         g_evals = s.n.y;
     }
     for (uint k = 0u; k < push.slice_steps && (m.flags & FLAG_DONE) == 0u; ++k) {
-        if (SC_METHOD == METHOD_LINEAR_BISECTION) {
+        if (SC_METHOD == METHOD_LINEAR_BISECTION || SC_METHOD == METHOD_RAA) {
             bisection_step(o, u, ray.o.w, ray.d.w, m);
         } else {
             march_step(o, u, ray.d.w, m);

@@ -66,7 +66,8 @@ gpu_structs! {
     struct GpuResult { hit: Vec4, color: Vec4, counts: UVec4 }
 
     /// A forward bound on `[t0, t1]` from the bounds probe:
-    /// `lo` = (v, a_lo, b_lo, t_valid), `hi` = (v, a_hi, b_hi, 0).
+    /// `lo` = (v, a_lo, b_lo, t_valid), `hi` = (v, a_hi, b_hi, 0). For RAA,
+    /// which is not forward, `lo.x` and `hi.x` hold its range, slopes 0.
     struct GpuBound { lo: Vec4, hi: Vec4 }
 
     /// A ray's marching state between dispatches (see `render::Renderer::march`):
@@ -105,6 +106,7 @@ pub const METHOD_LINEAR_TAYLOR: u32 = 2;
 pub const METHOD_QUADRATIC_TAYLOR: u32 = 3;
 pub const METHOD_LINEAR: u32 = 4;
 pub const METHOD_LINEAR_BISECTION: u32 = 5;
+pub const METHOD_RAA: u32 = 6;
 
 /// Specialization constants as `(constant_id, name)`; all are `uint`.
 /// `SC_HAS_*` are 0 or 1: a pipeline keeps only the code paths its scene uses.
@@ -125,6 +127,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("METHOD_QUADRATIC_TAYLOR", METHOD_QUADRATIC_TAYLOR),
     ("METHOD_LINEAR", METHOD_LINEAR),
     ("METHOD_LINEAR_BISECTION", METHOD_LINEAR_BISECTION),
+    ("METHOD_RAA", METHOD_RAA),
     ("PRIM_COMPACT_POINT", PRIM_COMPACT_POINT),
     ("PRIM_GAUSSIAN_POINT", PRIM_GAUSSIAN_POINT),
     ("PRIM_COMPACT_PLANE", PRIM_COMPACT_PLANE),

@@ -22,6 +22,9 @@ pub enum Method {
     /// The same bounds with bisection and interval pruning, the paper's
     /// baseline (Figure 10 f).
     LinearBisection,
+    /// Revised affine arithmetic with bisection ([FPC10], the paper's
+    /// baseline of Figure 10 e).
+    Raa,
 }
 
 impl Method {
@@ -32,6 +35,7 @@ impl Method {
         Method::QuadraticTaylor,
         Method::Linear,
         Method::LinearBisection,
+        Method::Raa,
     ];
 
     pub fn name(self) -> &'static str {
@@ -42,6 +46,7 @@ impl Method {
             Method::QuadraticTaylor => "quadratic-taylor",
             Method::Linear => "linear",
             Method::LinearBisection => "linear-bisection",
+            Method::Raa => "raa",
         }
     }
 
@@ -53,7 +58,7 @@ impl Method {
         match self {
             Method::Sphere | Method::Segment => 1.5,
             Method::LinearTaylor => 3.0,
-            Method::QuadraticTaylor | Method::Linear | Method::LinearBisection => 2.0,
+            Method::QuadraticTaylor | Method::Linear | Method::LinearBisection | Method::Raa => 2.0,
         }
     }
 
@@ -66,6 +71,7 @@ impl Method {
             Method::QuadraticTaylor => layout::METHOD_QUADRATIC_TAYLOR,
             Method::Linear => layout::METHOD_LINEAR,
             Method::LinearBisection => layout::METHOD_LINEAR_BISECTION,
+            Method::Raa => layout::METHOD_RAA,
         }
     }
 }

@@ -295,3 +295,33 @@ fn degenerate_queries_give_finite_bounds_and_marches_end() {
     }
     assert_no_validation(&ctx);
 }
+
+/// Revised affine arithmetic is not forward: its range over the interval
+/// must contain the field there, on the GPU and the f64 mirror alike, and
+/// the two must agree.
+#[test]
+fn raa_ranges_contain_the_field_on_gpu_and_f64() {
+    let ctx = gpu();
+    for (name, s) in all_scenes() {
+        let field = Field::new(&s);
+        let queries = cases(&s, 13, 300);
+        let mut renderer = Renderer::new(&ctx, &s).unwrap();
+        let sc = scale(&s);
+        let gpu = renderer.probe_bounds(Method::Raa, &queries).unwrap();
+        for (q, g) in queries.iter().zip(&gpu) {
+            let r = Ray::from_gpu(q);
+            let (lo, hi) = isomarch::field::raa::field_raa(&field, r.o, r.d, r.t0, r.t1);
+            let (glo, ghi) = (f64::from(g.lo[0]), f64::from(g.hi[0]));
+            assert!(lo.is_finite() && hi.is_finite() && glo.is_finite() && ghi.is_finite(), "{name}: non-finite range");
+            let width = (hi - lo).abs();
+            assert!((glo - lo).abs() <= 1e-4 * (sc + width) && (ghi - hi).abs() <= 1e-4 * (sc + width), "{name}: GPU [{glo}, {ghi}] vs f64 [{lo}, {hi}]");
+            for i in 0..=200 {
+                let t = r.t0 + (r.t1 - r.t0) * f64::from(i) / 200.0;
+                let f = field.value(r.o + t * r.d);
+                assert!(f >= lo - 1e-9 * sc && f <= hi + 1e-9 * sc, "{name}: f64 RAA [{lo}, {hi}] misses f = {f} at t = {t}");
+                assert!(f >= glo - 2e-5 * sc && f <= ghi + 2e-5 * sc, "{name}: GPU RAA [{glo}, {ghi}] misses f = {f} at t = {t}");
+            }
+        }
+    }
+    assert_no_validation(&ctx);
+}

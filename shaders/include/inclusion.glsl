@@ -296,6 +296,103 @@ Bound field_linear(vec3 o, vec3 u, float t0, float t1) {
     return best;
 }
 
+// Revised affine arithmetic (the paper's [FPC10] baseline), mirrored
+// from src/field/raa.rs: on [a, b], t = tm + tr ε; a quantity is
+// x0 + x1 ε ± e (vec3(x0, x1, e)).
+vec3 aa_mul(vec3 x, vec3 y) {
+    return vec3(x.x * y.x + 0.5 * x.y * y.y,
+                x.x * y.y + y.x * x.y,
+                0.5 * abs(x.y * y.y) + (abs(x.x) + abs(x.y)) * y.z + (abs(y.x) + abs(y.y)) * x.z + x.z * y.z);
+}
+
+vec3 aa_scale(vec3 x, float c) {
+    return vec3(c * x.x, c * x.y, abs(c) * x.z);
+}
+
+vec2 aa_range(vec3 x) {
+    float r = abs(x.y) + x.z;
+    return vec2(x.x - r, x.x + r);
+}
+
+// Compact kernel w (a - x²/R²)³ on x in [xa, xb]: affine in the ray's ε
+// where the support covers the interval, else its range united with 0.
+vec3 compact_raa(float w, float inv_r2, float h2, float xa, float xb) {
+    float a = 1.0 - h2 * inv_r2;
+    if (a <= 0.0) return vec3(0.0);
+    float l = sqrt(a / inv_r2);
+    float ca = max(xa, -l);
+    float cb = min(xb, l);
+    if (ca >= cb) return vec3(0.0);
+    g_evals += 1u;
+    vec3 x = vec3(0.5 * (ca + cb), 0.5 * (cb - ca), 0.0);
+    vec3 q = aa_scale(aa_mul(x, x), -inv_r2) + vec3(a, 0.0, 0.0);
+    vec3 p = aa_scale(aa_mul(aa_mul(q, q), q), w);
+    if (ca == xa && cb == xb) return p;
+    vec2 r = aa_range(p);
+    float lo = min(r.x, 0.0);
+    float hi = max(r.y, 0.0);
+    return vec3(0.5 * (lo + hi), 0.0, 0.5 * (hi - lo));
+}
+
+// e^{-y} by min-range linearisation; y is at least y_min.
+vec3 aa_exp_neg(vec3 y, float y_min) {
+    vec2 r = aa_range(y);
+    float hi = r.y;
+    float lo = min(max(r.x, y_min), hi);
+    float s = -exp(-hi);
+    float top = exp(-lo) - s * lo;
+    float bottom = exp(-hi) - s * hi;
+    return vec3(s * y.x + 0.5 * (top + bottom), s * y.y, abs(s) * y.z + 0.5 * (top - bottom));
+}
+
+vec3 prim_raa(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
+    uint kind = pr.ids.x;
+    if (!kind_enabled(kind)) return vec3(0.0);
+    if (kind == PRIM_COMPACT_PLANE) {
+        float sigma = dot(pr.a.xyz, u);
+        float sa = dot(pr.a.xyz, o + ta * u) - pr.a.w;
+        if (abs(sigma) < 1e-9) {
+            float dummy;
+            float q = sa * sa;
+            return vec3(q < pr.b.x * pr.b.x ? kernel_value(kind, pr.b, q, dummy) : 0.0, 0.0, 0.0);
+        }
+        float sb = dot(pr.a.xyz, o + tb * u) - pr.a.w;
+        vec3 r = compact_raa(pr.b.z, pr.b.y * sigma * sigma, 0.0, min(sa / sigma, sb / sigma), max(sa / sigma, sb / sigma));
+        return sigma < 0.0 ? vec3(r.x, -r.y, r.z) : r;
+    }
+    vec3 co = pr.a.xyz - o;
+    float tc = dot(co, u);
+    vec3 wv = co - tc * u;
+    float h2 = dot(wv, wv);
+    float xa = ta - tc;
+    float xb = tb - tc;
+    if (kind == PRIM_GAUSSIAN_POINT) {
+        g_evals += 1u;
+        vec3 x = vec3(0.5 * (xa + xb), 0.5 * (xb - xa), 0.0);
+        vec3 y = aa_scale(aa_mul(x, x) + vec3(h2, 0.0, 0.0), pr.b.y);
+        return aa_scale(aa_exp_neg(y, pr.b.y * h2), pr.b.z);
+    }
+    return compact_raa(pr.b.z, pr.b.y, h2, xa, xb);
+}
+
+// Range of f = max over groups (sums) - iso over [ta, tb].
+vec2 field_raa(vec3 o, vec3 u, float ta, float tb) {
+    uint n = globals.sizes.x;
+    vec2 best = vec2(-3.0e38);
+    vec3 s = vec3(0.0);
+    uint group = 0u;
+    for (uint i = 0u; i < n; ++i) {
+        GpuPrimitive pr = prims[i];
+        if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
+            best = max(best, aa_range(s));
+            s = vec3(0.0);
+            group = pr.ids.y;
+        }
+        s += prim_raa(pr, o, u, ta, tb);
+    }
+    return max(best, aa_range(s)) - globals.march.x;
+}
+
 // The bound of the specialised inclusion method on [t0, t1].
 Bound method_bound(vec3 o, vec3 u, float t0, float t1) {
     if (SC_METHOD == METHOD_LINEAR || SC_METHOD == METHOD_LINEAR_BISECTION) return field_linear(o, u, t0, t1);

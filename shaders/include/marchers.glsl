@@ -102,28 +102,35 @@ void bisection_advance(inout March m) {
     if (m.depth == 0u && m.index >= 1u) m.flags |= FLAG_DONE;
 }
 
-// The paper's interval-arithmetic baseline: bisection of [tmin, tmax] with
-// pruning (Section 7.1, Figure 10 e, f). One step examines one
-// sub-interval: its bound's range excludes 0, it is discarded; below the
-// minimum step, a sign change at its end is a crossing; otherwise it is
-// split and its front half comes next. Stackless: the node is (depth, index).
+// The paper's interval-arithmetic baselines (Section 7.1, Figure 10 e, f):
+// bisection of [tmin, tmax] with pruning. One step examines one
+// sub-interval: if its range excludes 0 it is discarded; below the minimum
+// step, a sign change at its end is a crossing; otherwise it is split and
+// its front half comes next. Stackless: the node is (depth, index). The
+// range comes from bottom-up linear bounds or revised affine arithmetic.
 void bisection_step(vec3 o, vec3 u, float tmin, float tmax, inout March m) {
     if (m.steps >= globals.sizes.w) {
         m.flags |= FLAG_DONE | FLAG_OUT_OF_STEPS;
         return;
     }
     m.steps += 1u;
-    float size = (tmax - tmin) * exp2(-float(m.depth));
-    float a = tmin + float(m.index) * size;
-    float b = min(a + size, tmax);
-    Bound bd = method_bound(o, u, a, b);
-    if (bd.v >= 0.0) {          // f(a) >= 0: only at tmin, a ray starting inside
-        m.t = a;
+    if (m.steps == 1u && field(o + tmin * u) >= 0.0) {   // the ray starts inside
+        m.t = tmin;
         m.flags |= FLAG_DONE | FLAG_HIT;
         return;
     }
+    float size = (tmax - tmin) * exp2(-float(m.depth));
+    float a = tmin + float(m.index) * size;
+    float b = min(a + size, tmax);
     float len = b - a;
-    if (bd.v + max(0.0, bd.a_hi * len) < 0.0) {
+    vec2 range;
+    if (SC_METHOD == METHOD_RAA) {
+        range = field_raa(o, u, a, b);
+    } else {
+        Bound bd = method_bound(o, u, a, b);
+        range = vec2(bd.v + min(0.0, bd.a_lo * len), bd.v + max(0.0, bd.a_hi * len));
+    }
+    if (range.y < 0.0) {
         bisection_advance(m);
         return;
     }

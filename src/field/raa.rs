@@ -1,0 +1,135 @@
+//! Revised affine arithmetic along a ray (the paper's [FPC10] baseline;
+//! Fryazinov, Pasko & Comninos 2010), in f64: the mirror of the RAA code in
+//! `shaders/include/inclusion.glsl`.
+//!
+//! On `[a, b]`, `t = tm + tr ε` with `ε ∈ [-1, 1]`. Every quantity is
+//! `x0 + x1 ε ± e`: a centre, one linear term in the ray parameter and one
+//! accumulated error. Products fold the quadratic term into the error
+//! (`ε² ∈ [0, 1]`, centred at ½); `e^{-y}` uses the min-range linearisation
+//! of a decreasing convex function. Compact supports are handled by
+//! clipping: a support that covers `[a, b]` keeps the affine form in the
+//! ray's ε, a partial one contributes its range united with 0.
+
+use glam::DVec3;
+
+use super::{Field, KernelEval, PrimEval};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Affine {
+    pub x0: f64,
+    pub x1: f64,
+    pub e: f64,
+}
+
+impl Affine {
+    pub const ZERO: Affine = Affine { x0: 0.0, x1: 0.0, e: 0.0 };
+
+    pub fn add(self, o: Affine) -> Affine {
+        Affine { x0: self.x0 + o.x0, x1: self.x1 + o.x1, e: self.e + o.e }
+    }
+    pub fn scale(self, c: f64) -> Affine {
+        Affine { x0: c * self.x0, x1: c * self.x1, e: c.abs() * self.e }
+    }
+    pub fn mul(self, y: Affine) -> Affine {
+        Affine {
+            x0: self.x0 * y.x0 + 0.5 * self.x1 * y.x1,
+            x1: self.x0 * y.x1 + y.x0 * self.x1,
+            e: 0.5 * (self.x1 * y.x1).abs() + (self.x0.abs() + self.x1.abs()) * y.e + (y.x0.abs() + y.x1.abs()) * self.e + self.e * y.e,
+        }
+    }
+    pub fn range(&self) -> (f64, f64) {
+        let r = self.x1.abs() + self.e;
+        (self.x0 - r, self.x0 + r)
+    }
+    fn from_range(lo: f64, hi: f64) -> Affine {
+        Affine { x0: 0.5 * (lo + hi), x1: 0.0, e: 0.5 * (hi - lo) }
+    }
+}
+
+/// `w (a - x²/R²)³` for `x = x0 + x1 ε` on the clipped support.
+fn compact_poly(w: f64, inv_r2: f64, a: f64, x: Affine) -> Affine {
+    let q = x.mul(x).scale(-inv_r2).add(Affine { x0: a, x1: 0.0, e: 0.0 });
+    q.mul(q).mul(q).scale(w)
+}
+
+/// The compact kernel in x on `x ∈ [xa, xb]` (x = t - tc, so dx/dt = 1).
+fn compact_raa(k: &KernelEval, inv_r2: f64, h2: f64, xa: f64, xb: f64) -> Affine {
+    let a = 1.0 - h2 * inv_r2;
+    if a <= 0.0 {
+        return Affine::ZERO;
+    }
+    let l = (a / inv_r2).sqrt();
+    let (ca, cb) = (xa.max(-l), xb.min(l));
+    if ca >= cb {
+        return Affine::ZERO;
+    }
+    let x = Affine { x0: 0.5 * (ca + cb), x1: 0.5 * (cb - ca), e: 0.0 };
+    let p = compact_poly(k.weight, inv_r2, a, x);
+    if ca == xa && cb == xb {
+        return p;
+    }
+    let (lo, hi) = p.range();
+    Affine::from_range(lo.min(0.0), hi.max(0.0))
+}
+
+impl PrimEval {
+    /// This primitive along `o + t u`, `t ∈ [ta, tb]`, in revised affine
+    /// arithmetic. `ta == tb` is allowed.
+    pub fn raa(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> Affine {
+        match *self {
+            PrimEval::Point { center, kernel } => {
+                let co = center - o;
+                let tc = co.dot(u);
+                let h2 = (co - tc * u).length_squared();
+                let (xa, xb) = (ta - tc, tb - tc);
+                if kernel.gaussian {
+                    let x = Affine { x0: 0.5 * (xa + xb), x1: 0.5 * (xb - xa), e: 0.0 };
+                    let y = x.mul(x).add(Affine { x0: h2, x1: 0.0, e: 0.0 }).scale(kernel.inv);
+                    exp_neg(y, kernel.inv * h2).scale(kernel.weight)
+                } else {
+                    compact_raa(&kernel, kernel.inv, h2, xa, xb)
+                }
+            }
+            PrimEval::Plane { normal, offset, kernel } => {
+                let sigma = normal.dot(u);
+                let sa = normal.dot(o + ta * u) - offset;
+                if sigma.abs() < 1e-9 {
+                    let v = kernel.value(sa * sa);
+                    return Affine { x0: v, x1: 0.0, e: 0.0 };
+                }
+                // x = s/σ: the compact kernel with 1/R'² = σ²/R², h = 0.
+                let sb = normal.dot(o + tb * u) - offset;
+                let (xa, xb) = (sa / sigma, sb / sigma);
+                let (lo, hi) = (xa.min(xb), xa.max(xb));
+                let r = compact_raa(&kernel, kernel.inv * sigma * sigma, 0.0, lo, hi);
+                // x runs against t when σ < 0: flip the ε term.
+                if sigma < 0.0 { Affine { x1: -r.x1, ..r } } else { r }
+            }
+        }
+    }
+}
+
+/// `e^{-y}` by min-range linearisation on the range of `y`, which is at
+/// least `y_min` (the true minimum of y along the ray).
+pub fn exp_neg(y: Affine, y_min: f64) -> Affine {
+    let (lo, hi) = y.range();
+    let lo = lo.max(y_min).min(hi);
+    // Slope of least magnitude on [lo, hi]: φ'(hi). φ(y) - s y decreases.
+    let s = -(-hi).exp();
+    let (top, bottom) = ((-lo).exp() - s * lo, (-hi).exp() - s * hi);
+    let zeta = 0.5 * (top + bottom);
+    let delta = 0.5 * (top - bottom);
+    Affine { x0: s * y.x0 + zeta, x1: s * y.x1, e: s.abs() * y.e + delta }
+}
+
+/// The range of `f = max over groups (sums) - iso` over `[ta, tb]`.
+pub fn field_raa(field: &Field, o: DVec3, u: DVec3, ta: f64, tb: f64) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for g in &field.groups {
+        let s = g.iter().fold(Affine::ZERO, |s, p| s.add(p.raa(o, u, ta, tb)));
+        let (a, b) = s.range();
+        lo = lo.max(a);
+        hi = hi.max(b);
+    }
+    (lo - field.iso, hi - field.iso)
+}
