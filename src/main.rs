@@ -40,7 +40,8 @@ struct GpuArgs {
 
 #[derive(Args)]
 struct MarchArgs {
-    /// Marcher: sphere, segment, linear-taylor or quadratic-taylor
+    /// Marcher: sphere, segment, linear-taylor, quadratic-taylor, linear,
+    /// linear-bisection or raa
     /// (default: the scene's marching.method).
     #[arg(long)]
     method: Option<String>,
