@@ -184,18 +184,14 @@ fn run(cli: Cli) -> Result<()> {
             let scene = load_scene(&scene, &march)?;
             let (width, height) = size.unwrap_or((scene.camera.width, scene.camera.height));
             let (ctx, timeout) = open(&gpu)?;
+            let method = scene.marching.method;
             let job = RenderJob {
-                method: scene.marching.method,
-                scene,
-                width,
-                height,
-                output,
                 heatmap,
                 steps_max,
                 aovs: aov,
                 aov_output,
                 stats,
-                timeout,
+                ..RenderJob::new(scene, method, (width, height), output, timeout)
             };
             let s = render_to_files(&ctx, &job)?;
             eprintln!(
@@ -227,19 +223,7 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(path) = heatmap_grid {
                 let mut panels = Vec::new();
                 for &method in &methods {
-                    let job = RenderJob {
-                        scene: scene.clone(),
-                        method,
-                        width: size.0,
-                        height: size.1,
-                        output: PathBuf::new(),
-                        heatmap: None,
-                        steps_max: None,
-                        aovs: vec![],
-                        aov_output: None,
-                        stats: None,
-                        timeout,
-                    };
+                    let job = RenderJob::new(scene.clone(), method, size, PathBuf::new(), timeout);
                     let (frame, _) = render_frame(&ctx, &job)?;
                     panels.push((method.to_string(), frame.steps()));
                 }

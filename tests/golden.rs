@@ -56,19 +56,7 @@ fn check_golden(name: &str, actual: &RgbImage) {
 fn render(scene: &str, method: Method, size: u32) -> (RgbImage, RgbImage) {
     let ctx = gpu();
     let scene = Scene::load(&repo_root().join("scenes").join(scene)).unwrap();
-    let job = RenderJob {
-        scene,
-        method,
-        width: size,
-        height: size,
-        output: PathBuf::new(),
-        heatmap: None,
-        steps_max: None,
-        aovs: vec![],
-        aov_output: None,
-        stats: None,
-        timeout: std::time::Duration::from_secs(300),
-    };
+    let job = RenderJob::new(scene, method, (size, size), PathBuf::new(), std::time::Duration::from_secs(300));
     let (frame, stats) = render_frame(&ctx, &job).unwrap();
     assert!(stats.hit_rate > 0.1 && stats.hit_rate < 0.9, "hit rate {}: not a picture of blobs", stats.hit_rate);
     assert_no_validation(&ctx);

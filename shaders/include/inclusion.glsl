@@ -142,41 +142,6 @@ Bound max_bound(Bound f, Bound g, float len, bool QUADRATIC) {
     return r;
 }
 
-// Taylor bound of f = max over groups (sums) - iso on [t0, t1].
-Bound field_taylor(vec3 o, vec3 u, float t0, float t1, bool QUADRATIC) {
-    uint n = globals.sizes.x;
-    float len = t1 - t0;
-    Bound best;
-    bool have = false;
-    Taylor s = Taylor(0.0, 0.0, 0.0, 0.0);
-    uint group = 0u;
-    for (uint i = 0u; i <= n; ++i) {
-        bool flush = i == n;
-        GpuPrimitive pr;
-        if (!flush) {
-            pr = prims[i];
-            flush = SC_MULTI_GROUP != 0u && pr.ids.y != group;
-        }
-        if (flush) {
-            Bound b = QUADRATIC
-                ? Bound(s.value, s.slope, 0.5 * s.lo, s.slope, 0.5 * s.hi)      // Eq. 19
-                : Bound(s.value, s.lo, 0.0, s.hi, 0.0);                          // Eq. 13-15
-            best = have ? max_bound(best, b, len, QUADRATIC) : b;
-            have = true;
-            if (i == n) break;
-            s = Taylor(0.0, 0.0, 0.0, 0.0);
-            group = pr.ids.y;
-        }
-        Taylor k = prim_taylor(pr, o, u, t0, t1, QUADRATIC);
-        s.value += k.value;
-        s.slope += k.slope;
-        s.lo += k.lo;
-        s.hi += k.hi;
-    }
-    best.v -= globals.march.x;
-    return best;
-}
-
 // Bottom-up linear bounds (Section 5.2): v + lo τ <= f <= v + hi τ on
 // [0, len]. Mirrors `Lin` in src/field/bounds.rs.
 struct Lin {
@@ -262,38 +227,6 @@ Lin prim_linear(GpuPrimitive pr, vec3 o, vec3 u, float t0, float len) {
         return Lin(k.v, max(k.lo, -pr.c.x), min(k.hi, pr.c.x));
     }
     return compact_lin(pr.b.z, pr.b.y, 1.0 - h2 * pr.b.y, x0, len);
-}
-
-// Bottom-up linear bound of f = max over groups (sums) - iso on [t0, t1].
-Bound field_linear(vec3 o, vec3 u, float t0, float t1) {
-    uint n = globals.sizes.x;
-    float len = t1 - t0;
-    Bound best;
-    bool have = false;
-    Lin s = Lin(0.0, 0.0, 0.0);
-    uint group = 0u;
-    for (uint i = 0u; i <= n; ++i) {
-        bool flush = i == n;
-        GpuPrimitive pr;
-        if (!flush) {
-            pr = prims[i];
-            flush = SC_MULTI_GROUP != 0u && pr.ids.y != group;
-        }
-        if (flush) {
-            Bound b = Bound(s.v, s.lo, 0.0, s.hi, 0.0);
-            best = have ? max_bound(best, b, len, false) : b;
-            have = true;
-            if (i == n) break;
-            s = Lin(0.0, 0.0, 0.0);
-            group = pr.ids.y;
-        }
-        Lin k = prim_linear(pr, o, u, t0, len);
-        s.v += k.v;
-        s.lo += k.lo;
-        s.hi += k.hi;
-    }
-    best.v -= globals.march.x;
-    return best;
 }
 
 // Revised affine arithmetic (the paper's [FPC10] baseline), mirrored
@@ -393,10 +326,54 @@ vec2 field_raa(vec3 o, vec3 u, float ta, float tb) {
     return max(best, aa_range(s)) - globals.march.x;
 }
 
-// The bound of the specialised inclusion method on [t0, t1].
+// One primitive's terms for the specialised method on [t0, t1]: value,
+// exact slope at t0, and the range summed into the group's bound (of f'
+// for linear Taylor, of f'' for quadratic Taylor, the slopes of the
+// bottom-up linear bound for `linear`).
+Taylor prim_terms(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1) {
+    if (SC_METHOD == METHOD_LINEAR || SC_METHOD == METHOD_LINEAR_BISECTION) {
+        Lin k = prim_linear(pr, o, u, t0, t1 - t0);
+        return Taylor(k.v, 0.0, k.lo, k.hi);
+    }
+    return prim_taylor(pr, o, u, t0, t1, SC_METHOD == METHOD_QUADRATIC_TAYLOR);
+}
+
+// The bound of the specialised inclusion method for f = max over groups
+// (sums) - iso on [t0, t1]: per-primitive terms add within a group (Eq. 16),
+// and groups combine by the bottom-up max (Section 5.2, Appendix C).
 Bound method_bound(vec3 o, vec3 u, float t0, float t1) {
-    if (SC_METHOD == METHOD_LINEAR || SC_METHOD == METHOD_LINEAR_BISECTION) return field_linear(o, u, t0, t1);
-    return field_taylor(o, u, t0, t1, SC_METHOD == METHOD_QUADRATIC_TAYLOR);
+    bool quadratic = SC_METHOD == METHOD_QUADRATIC_TAYLOR;
+    uint n = globals.sizes.x;
+    float len = t1 - t0;
+    Bound best;
+    bool have = false;
+    Taylor s = Taylor(0.0, 0.0, 0.0, 0.0);
+    uint group = 0u;
+    for (uint i = 0u; i <= n; ++i) {
+        bool flush = i == n;
+        GpuPrimitive pr;
+        if (!flush) {
+            pr = prims[i];
+            flush = SC_MULTI_GROUP != 0u && pr.ids.y != group;
+        }
+        if (flush) {
+            Bound b = quadratic
+                ? Bound(s.value, s.slope, 0.5 * s.lo, s.slope, 0.5 * s.hi)      // Eq. 19
+                : Bound(s.value, s.lo, 0.0, s.hi, 0.0);                          // Eq. 13-16
+            best = have ? max_bound(best, b, len, quadratic) : b;
+            have = true;
+            if (i == n) break;
+            s = Taylor(0.0, 0.0, 0.0, 0.0);
+            group = pr.ids.y;
+        }
+        Taylor k = prim_terms(pr, o, u, t0, t1);
+        s.value += k.value;
+        s.slope += k.slope;
+        s.lo += k.lo;
+        s.hi += k.hi;
+    }
+    best.v -= globals.march.x;
+    return best;
 }
 
 // First τ > 0 with -g + A τ + B τ² = 0 (g >= 0), +inf when none; no

@@ -31,6 +31,26 @@ pub struct RenderJob {
     pub timeout: Duration,
 }
 
+impl RenderJob {
+    /// A job that writes only the shaded image to `output`, at `width` x
+    /// `height` with `method`, within `timeout`.
+    pub fn new(scene: Scene, method: Method, (width, height): (u32, u32), output: PathBuf, timeout: Duration) -> RenderJob {
+        RenderJob {
+            scene,
+            method,
+            width,
+            height,
+            output,
+            heatmap: None,
+            steps_max: None,
+            aovs: vec![],
+            aov_output: None,
+            stats: None,
+            timeout,
+        }
+    }
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct RenderStats {
     pub scene: String,
