@@ -81,7 +81,7 @@ fn gaussian_blob_with_default_weight_is_a_sphere_of_radius_r() {
 const KNOWN_EXCEPTIONS: &[(u64, bool, usize)] = &[];
 
 #[test]
-fn random_scenes_find_the_references_first_crossing() {
+fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
     let ctx = gpu();
     let rays_per_scene = 1024;
     let mut report = Vec::new();
@@ -94,7 +94,33 @@ fn random_scenes_find_the_references_first_crossing() {
             assert!(ref_hits > rays_per_scene / 10, "seed {seed}: only {ref_hits} reference hits; the scene is too sparse to test");
             let mut renderer = Renderer::new(&ctx, &s).unwrap();
             renderer.shade = false;
+            let field = isomarch::field::Field::new(&s);
+            let settings = isomarch::field::march::MarchSettings {
+                min_step: s.marching.min_step,
+                max_steps: s.marching.max_steps,
+                growth: 0.0,
+                tolerance: s.refine_tolerance(),
+            };
             for &method in Method::ALL {
+                // The f64 mirror of the marcher, on the first rays of the set.
+                let settings = isomarch::field::march::MarchSettings { growth: method.default_growth(), ..settings };
+                let mirror_tol = 2.0 * s.refine_tolerance();
+                for (r, reference) in rays.iter().zip(&reference).take(256) {
+                    let ray = Ray::from_gpu(r);
+                    if ray.misses() {
+                        continue;
+                    }
+                    let m = isomarch::field::march::march(&field, method, ray.o, ray.d, ray.t0, ray.t1, settings);
+                    assert!(!m.out_of_steps, "seed {seed} {method} f64: out of steps");
+                    let ok = match (m.hit, reference) {
+                        (Some(t), Some(tr)) => (t - tr).abs() <= mirror_tol,
+                        (None, None) => true,
+                        _ => false,
+                    };
+                    if !ok {
+                        report.push(format!("seed {seed} max={max_of_groups} {method} f64 mirror: hit {:?}, reference {reference:?}", m.hit));
+                    }
+                }
                 let out = renderer.march(method, &rays, |_| {}).unwrap();
                 // A hit may land up to the refinement tolerance past the
                 // root, plus f32 rounding of t; never before it.

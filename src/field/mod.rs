@@ -2,6 +2,7 @@
 //! double precision. It is the oracle for the tests and the benchmarks.
 
 pub mod bounds;
+pub mod march;
 pub mod raa;
 pub mod reference;
 

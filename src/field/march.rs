@@ -1,0 +1,135 @@
+//! The marchers in f64: the mirror of `shaders/include/marchers.glsl`, so
+//! that the no-missed-crossing tests run on the GPU and on the mirror with
+//! the same cases.
+
+use glam::DVec3;
+
+use super::bounds::{Order, field_linear, field_taylor, next_root};
+use super::raa::field_raa;
+use super::reference::bisect;
+use super::Field;
+use crate::method::Method;
+
+/// Marching settings shared with the GPU.
+#[derive(Clone, Copy, Debug)]
+pub struct MarchSettings {
+    pub min_step: f64,
+    pub max_steps: u32,
+    pub growth: f64,
+    pub tolerance: f64,
+}
+
+/// What an f64 march found: the hit distance (the inside end of the
+/// refined bracket) and the steps taken; `None` hit on a miss.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MarchResult {
+    pub hit: Option<f64>,
+    pub steps: u32,
+    pub out_of_steps: bool,
+}
+
+/// The first crossing of `o + t u` on `[t0, t1]` found by `method`.
+pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64, s: MarchSettings) -> MarchResult {
+    let at = |t: f64| field.value(o + t * u);
+    let refine = |a: f64, b: f64| {
+        let m = bisect(&at, a, b, false, s.tolerance);
+        // The GPU returns the inside end of the bracket; within tolerance.
+        (m + 0.5 * s.tolerance).min(b)
+    };
+    let mut r = MarchResult { hit: None, steps: 0, out_of_steps: false };
+    if !(t1 >= t0) {
+        return r;
+    }
+    if matches!(method, Method::LinearBisection | Method::Raa) {
+        return bisection(field, method, o, u, t0, t1, s);
+    }
+    let (mut t, mut t_prev, mut window) = (t0, t0, t1 - t0);
+    loop {
+        if r.steps >= s.max_steps {
+            r.out_of_steps = true;
+            return r;
+        }
+        r.steps += 1;
+        let t_end = (t + window).min(t1);
+        let len = t_end - t;
+        let (f, step) = match method {
+            Method::Sphere => {
+                let f = at(t);
+                (f, f.abs() / field.lipschitz())
+            }
+            Method::Segment => {
+                let f = at(t);
+                let lambda = field.segment_lipschitz(o, u, t, t_end);
+                (f, if lambda > 0.0 { (f.abs() / lambda).min(len) } else { len })
+            }
+            Method::LinearTaylor | Method::QuadraticTaylor | Method::Linear => {
+                let b = match method {
+                    Method::LinearTaylor => field_taylor(field, o, u, t, t_end, Order::Linear),
+                    Method::QuadraticTaylor => field_taylor(field, o, u, t, t_end, Order::Quadratic),
+                    _ => field_linear(field, o, u, t, t_end),
+                };
+                (b.v, next_root(&b).min(len))
+            }
+            Method::LinearBisection | Method::Raa => unreachable!("handled above"),
+        };
+        if f >= 0.0 {
+            r.hit = Some(if r.steps > 1 { refine(t_prev, t) } else { t });
+            return r;
+        }
+        if t >= t1 {
+            return r;
+        }
+        let safe = step;
+        let step = step.max(s.min_step);
+        t_prev = t;
+        t = (t + step).min(t1);
+        if t >= t1 && safe >= t1 - t_prev {
+            return r;
+        }
+        window = s.growth * step;
+    }
+}
+
+/// Front-to-back bisection with pruning (the GPU's stackless traversal in
+/// recursive form).
+fn bisection(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64, s: MarchSettings) -> MarchResult {
+    let at = |t: f64| field.value(o + t * u);
+    let mut r = MarchResult { hit: None, steps: 0, out_of_steps: false };
+    r.steps = 1;
+    if at(t0) >= 0.0 {
+        r.hit = Some(t0);
+        return r;
+    }
+    r.steps = 0;
+    let mut stack = vec![(t0, t1, 0u32)];
+    while let Some((a, b, depth)) = stack.pop() {
+        if r.steps >= s.max_steps {
+            r.out_of_steps = true;
+            return r;
+        }
+        r.steps += 1;
+        let len = b - a;
+        let hi = match method {
+            Method::Raa => field_raa(field, o, u, a, b).1,
+            _ => {
+                let bd = field_linear(field, o, u, a, b);
+                bd.v + (bd.a_hi * len).max(0.0)
+            }
+        };
+        if hi < 0.0 {
+            continue;
+        }
+        if len <= s.min_step || depth >= 30 {
+            if at(b) >= 0.0 {
+                let m = bisect(&at, a, b, false, s.tolerance);
+                r.hit = Some((m + 0.5 * s.tolerance).min(b));
+                return r;
+            }
+            continue;
+        }
+        let m = a + 0.5 * len;
+        stack.push((m, b, depth + 1));
+        stack.push((a, m, depth + 1));
+    }
+    r
+}
