@@ -27,6 +27,10 @@ void main() {
         m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w, s.node.x, s.node.y);
         g_evals = s.n.y;
     }
+    // What remains of the ray: bisection revisits it all, Algorithm 1 only
+    // from the last point outside (refinement starts there).
+    bool bisects = SC_METHOD == METHOD_LINEAR_BISECTION || SC_METHOD == METHOD_RAA;
+    cull_to_ray(o, u, bisects ? ray.o.w : m.t_prev, ray.d.w);
     for (uint k = 0u; k < push.slice_steps && (m.flags & FLAG_DONE) == 0u; ++k) {
         if (SC_METHOD == METHOD_LINEAR_BISECTION || SC_METHOD == METHOD_RAA) {
             bisection_step(o, u, ray.o.w, ray.d.w, m);

@@ -123,16 +123,28 @@ pub fn accuracy(results: &[GpuResult], reference: &[Option<f64>], late_by: f64, 
     a
 }
 
-/// Runs every method on the same protocol rays and compares them.
-pub fn run(ctx: &Arc<Context>, scene: &Scene, methods: &[Method], rays: usize, seed: u64, timeout: std::time::Duration) -> Result<BenchReport> {
+/// Runs every method on the same protocol rays and compares them; with
+/// both values in `culls`, each method runs with per-ray support culling
+/// and without (rows marked "no cull").
+pub fn run(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    methods: &[Method],
+    culls: &[bool],
+    rays: usize,
+    seed: u64,
+    timeout: std::time::Duration,
+) -> Result<BenchReport> {
     let ray_set = protocol_rays(&scene.bounds, rays, seed);
     let reference = reference_hits(scene, &ray_set, true);
     let mut renderer = Renderer::new(ctx, scene)?;
     renderer.timeout = timeout;
     renderer.shade = false;
     let mut reports: Vec<MethodReport> = Vec::new();
-    for &method in methods {
-        let bar = progress(rays as u64, &format!("{method}"));
+    for (&method, &cull) in methods.iter().flat_map(|m| culls.iter().map(move |c| (m, c))) {
+        let label = if cull || culls.len() == 1 { method.to_string() } else { format!("{method} (no cull)") };
+        renderer.cull = cull;
+        let bar = progress(rays as u64, &label);
         let out = renderer.march(method, &ray_set, |done| bar.set_position(done as u64))?;
         bar.finish_and_clear();
         let stats = MarchStats::of(&out.results, out.gpu_ns);
@@ -140,7 +152,7 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, methods: &[Method], rays: usize, s
         let n = rays.max(1) as f64;
         let first = reports.first();
         reports.push(MethodReport {
-            method: method.to_string(),
+            method: label,
             steps_per_ray: stats.steps_per_ray,
             evals_per_ray: stats.evals_per_ray,
             refine_per_ray: stats.refine_per_ray,

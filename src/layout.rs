@@ -117,6 +117,7 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
     (3, "SC_HAS_COMPACT_PLANE"),
     (4, "SC_MULTI_GROUP"),
     (5, "SC_SHADE"),
+    (6, "SC_CULL"),
 ];
 
 /// Integer constants shared with GLSL, as `(name, value)`.

@@ -107,6 +107,10 @@ enum Command {
         /// Also write the report as JSON.
         #[arg(long, value_name = "FILE")]
         json: Option<PathBuf>,
+        /// Per-ray support culling (identical results, less work): on, off,
+        /// or both to measure it in one run.
+        #[arg(long, value_parser = ["on", "off", "both"], default_value = "on")]
+        cull: String,
         /// Also render the scene's camera view with each method and write
         /// their step heatmaps side by side on one scale (like Figure 10).
         #[arg(long, value_name = "PNG")]
@@ -208,14 +212,19 @@ fn run(cli: Cli) -> Result<()> {
             );
             check_validation(&ctx)
         }
-        Command::Bench { scene, methods, rays, seed, json, heatmap_grid, size, steps_max, march, gpu } => {
+        Command::Bench { scene, methods, rays, seed, json, cull, heatmap_grid, size, steps_max, march, gpu } => {
             let methods = parse_list(&methods).map_err(anyhow::Error::msg).context("--methods")?;
             if rays == 0 {
                 bail!("--rays must be at least 1");
             }
             let scene = load_scene(&scene, &march)?;
             let (ctx, timeout) = open(&gpu)?;
-            let report = bench::run(&ctx, &scene, &methods, rays, seed, timeout)?;
+            let culls: &[bool] = match cull.as_str() {
+                "off" => &[false],
+                "both" => &[false, true],
+                _ => &[true],
+            };
+            let report = bench::run(&ctx, &scene, &methods, culls, rays, seed, timeout)?;
             print!("{}", bench::markdown(&report));
             if let Some(path) = json {
                 write_atomic(&path, &serde_json::to_vec_pretty(&report)?)?;

@@ -8,6 +8,16 @@
 // Per-primitive kernel evaluations made by this invocation (values, bounds).
 uint g_evals = 0u;
 
+// With SC_CULL: bit i is set when primitive i's support meets the part of
+// the ray still to march (cull_to_ray), and the field loops skip the rest.
+// Skipped primitives contribute exactly 0, so values, bounds and step
+// counts are unchanged; only the work is.
+uvec2 g_mask = uvec2(0xffffffffu);
+
+bool prim_active(uint i) {
+    return SC_CULL == 0u || ((g_mask[i >> 5u] >> (i & 31u)) & 1u) != 0u;
+}
+
 // Kernel of a squared distance q, and dk/dq. b = (R or r, 1/R² or s/r², w, -).
 float kernel_value(uint kind, vec4 b, float q, out float dk_dq) {
     if (kind == PRIM_GAUSSIAN_POINT) {
@@ -59,6 +69,7 @@ float field_eval(vec3 p, bool want_grad, out vec3 grad) {
     vec3 sum_grad = vec3(0.0);
     uint group = 0u;
     for (uint i = 0u; i < n; ++i) {
+        if (!prim_active(i)) continue;
         GpuPrimitive pr = prims[i];
         if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
             if (sum > best) { best = sum; best_grad = sum_grad; }
@@ -130,6 +141,7 @@ float field_and_lipschitz(vec3 o, vec3 u, float ta, float tb, out float lambda) 
     float slope = 0.0;
     uint group = 0u;
     for (uint i = 0u; i < n; ++i) {
+        if (!prim_active(i)) continue;
         GpuPrimitive pr = prims[i];
         if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
             best = max(best, sum);
@@ -143,6 +155,31 @@ float field_and_lipschitz(vec3 o, vec3 u, float ta, float tb, out float lambda) 
     }
     lambda = max(best_slope, slope);
     return max(best, sum) - globals.march.x;
+}
+
+// Sets g_mask to the primitives whose support meets o + t u, t in [ta, tb]
+// (Gaussians always). Only with SC_CULL, which the host sets for scenes of
+// at most 64 primitives.
+void cull_to_ray(vec3 o, vec3 u, float ta, float tb) {
+    if (SC_CULL == 0u) return;
+    g_mask = uvec2(0u);
+    uint n = globals.sizes.x;
+    for (uint i = 0u; i < n; ++i) {
+        GpuPrimitive pr = prims[i];
+        uint kind = pr.ids.x;
+        bool meets;
+        if (kind == PRIM_GAUSSIAN_POINT) {
+            meets = true;
+        } else if (kind == PRIM_COMPACT_PLANE) {
+            float sa = dot(pr.a.xyz, o + ta * u) - pr.a.w;
+            float sb = dot(pr.a.xyz, o + tb * u) - pr.a.w;
+            meets = sa * sb <= 0.0 || min(abs(sa), abs(sb)) < pr.b.x;
+        } else {
+            float tc = clamp(dot(pr.a.xyz - o, u), ta, tb);
+            meets = length(o + tc * u - pr.a.xyz) < pr.b.x;
+        }
+        if (meets) g_mask[i >> 5u] |= 1u << (i & 31u);
+    }
 }
 
 #endif

@@ -315,6 +315,7 @@ vec2 field_raa(vec3 o, vec3 u, float ta, float tb) {
     vec3 s = vec3(0.0);
     uint group = 0u;
     for (uint i = 0u; i < n; ++i) {
+        if (!prim_active(i)) continue;
         GpuPrimitive pr = prims[i];
         if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
             best = max(best, aa_range(s));
@@ -350,6 +351,7 @@ Bound method_bound(vec3 o, vec3 u, float t0, float t1) {
     Taylor s = Taylor(0.0, 0.0, 0.0, 0.0);
     uint group = 0u;
     for (uint i = 0u; i <= n; ++i) {
+        if (i < n && !prim_active(i)) continue;
         bool flush = i == n;
         GpuPrimitive pr;
         if (!flush) {

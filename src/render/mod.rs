@@ -45,14 +45,15 @@ const REFINE_ITERATIONS: usize = 64;
 
 /// The most primitives one marching step can visit within the loop budget.
 pub fn max_primitives() -> usize {
-    (LOOP_BUDGET - (REFINE_ITERATIONS + 2) - 34) / (REFINE_ITERATIONS + 4)
+    (LOOP_BUDGET - (REFINE_ITERATIONS + 3) - 34) / (REFINE_ITERATIONS + 5)
 }
 
 /// Marching steps per slice for a scene of `primitives` primitives: each
 /// step loops over the primitives about twice (bound and value) plus up to
 /// 30 bisection-tree moves, and the last one may also refine and shade.
 pub fn slice_steps(primitives: usize) -> Result<u32> {
-    let fixed = (REFINE_ITERATIONS + 2) * (primitives + 1);
+    // Culling, refinement and shading once per slice.
+    let fixed = (REFINE_ITERATIONS + 3) * (primitives + 1);
     let per_step = 2 * primitives + 34;
     if primitives > max_primitives() {
         bail!(
@@ -94,7 +95,7 @@ pub struct Renderer {
     states: Buffer,
     active: Buffer,
     slice_steps: u32,
-    pipelines: HashMap<(EntryPoint, Method), ComputePipeline>,
+    pipelines: HashMap<(EntryPoint, Method, bool), ComputePipeline>,
     submitter: Submitter,
     /// Give up when the GPU is not done by then.
     pub timeout: Duration,
@@ -102,6 +103,9 @@ pub struct Renderer {
     /// Interval growth k for every method; `None`: the scene's, else each
     /// method's default.
     pub growth: Option<f64>,
+    /// Skip, per ray, the primitives whose support the ray no longer meets
+    /// (scenes of at most 64 primitives). Results are identical either way.
+    pub cull: bool,
 }
 
 /// The primitives in GPU layout, sorted by group.
@@ -157,7 +161,10 @@ fn globals(scene: &Scene, growth: f64) -> GpuGlobals {
 }
 
 /// Specialization constants for `scene` marched by `method`.
-pub fn specialization(scene: &Scene, method: Method, shade: bool) -> Vec<(u32, u32)> {
+/// Per-ray support culling keeps one bit per primitive.
+pub const CULL_MAX_PRIMITIVES: usize = 64;
+
+pub fn specialization(scene: &Scene, method: Method, shade: bool, cull: bool) -> Vec<(u32, u32)> {
     let has = |pred: fn(&Primitive) -> bool| u32::from(scene.primitives().any(pred));
     let values = [
         ("SC_METHOD", method.shader_id()),
@@ -166,6 +173,7 @@ pub fn specialization(scene: &Scene, method: Method, shade: bool) -> Vec<(u32, u
         ("SC_HAS_COMPACT_PLANE", has(|p| matches!(p, Primitive::Plane { .. }))),
         ("SC_MULTI_GROUP", u32::from(scene.groups.len() > 1)),
         ("SC_SHADE", u32::from(shade)),
+        ("SC_CULL", u32::from(cull && scene.primitive_count() <= CULL_MAX_PRIMITIVES)),
     ];
     values
         .iter()
@@ -214,6 +222,7 @@ impl Renderer {
             timeout: Duration::from_secs(600),
             shade: true,
             growth: None,
+            cull: true,
         })
     }
 
@@ -222,9 +231,9 @@ impl Renderer {
     }
 
     fn pipeline(&mut self, entry: EntryPoint, method: Method) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
-        let key = (entry, method);
+        let key = (entry, method, self.cull);
         if !self.pipelines.contains_key(&key) {
-            let spec = specialization(&self.scene, method, self.shade);
+            let spec = specialization(&self.scene, method, self.shade, self.cull);
             let spirv = match entry {
                 EntryPoint::March => MARCH_SPV,
                 EntryPoint::BoundsProbe => BOUNDS_SPV,
