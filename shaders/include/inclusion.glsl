@@ -33,13 +33,16 @@ vec3 gaussian_derivs(float amp, float alpha, float x) {
     return vec3(k, -2.0 * alpha * x * k, 2.0 * alpha * (2.0 * alpha * x * x - 1.0) * k);
 }
 
-void widen(inout vec2 r, float v) {
-    r = vec2(min(r.x, v), max(r.y, v));
-}
-
 // Range of k' (QUADRATIC false) or k'' (true) over [x0, x1]: ends plus the
-// roots of the next derivative inside (Appendix A, Eq. 23).
-#define DERIV(d) (QUADRATIC ? d.z : d.y)
+// roots of the next derivative inside (Appendix A, Eq. 23). Branch-free for
+// SIMD lanes: each root is clamped into the interval, which adds at worst
+// an end point already counted, and only the needed derivative is computed.
+
+// k' or k'' of the compact kernel w (a - x²/R²)³ at x inside the support.
+float compact_deriv(float w, float inv_r2, float a, float x, bool QUADRATIC) {
+    float q = max(a - x * x * inv_r2, 0.0);
+    return QUADRATIC ? -6.0 * w * q * (a - 5.0 * x * x * inv_r2) * inv_r2 : -6.0 * w * x * q * q * inv_r2;
+}
 
 Taylor compact_taylor(float w, float inv_r2, float radius, float h2, float x0, float x1, bool QUADRATIC) {
     Taylor k = Taylor(0.0, 0.0, 0.0, 0.0);
@@ -50,44 +53,37 @@ Taylor compact_taylor(float w, float inv_r2, float radius, float h2, float x0, f
     float xb = min(x1, l);
     if (xa >= xb) return k;       // the support misses the interval: only this test
     g_evals += 1u;
-    vec3 d0 = compact_derivs(w, inv_r2, a, x0);
-    k.value = d0.x;
-    k.slope = d0.y;
-    vec3 da = compact_derivs(w, inv_r2, a, xa);
-    vec3 db = compact_derivs(w, inv_r2, a, xb);
-    vec2 r = vec2(min(DERIV(da), DERIV(db)), max(DERIV(da), DERIV(db)));
-    if (QUADRATIC) {
-        float c = l * 0.7745966692;            // √(3/5)
-        if (xa < 0.0 && 0.0 < xb) widen(r, compact_derivs(w, inv_r2, a, 0.0).z);
-        if (xa < -c && -c < xb) widen(r, compact_derivs(w, inv_r2, a, -c).z);
-        if (xa < c && c < xb) widen(r, compact_derivs(w, inv_r2, a, c).z);
-    } else {
-        float c = l * 0.4472135955;            // 1/√5
-        if (xa < -c && -c < xb) widen(r, compact_derivs(w, inv_r2, a, -c).y);
-        if (xa < c && c < xb) widen(r, compact_derivs(w, inv_r2, a, c).y);
-    }
-    k.lo = r.x;
-    k.hi = r.y;
+    float q0 = max(a - x0 * x0 * inv_r2, 0.0);
+    k.value = w * q0 * q0 * q0;
+    k.slope = -6.0 * w * x0 * q0 * q0 * inv_r2;
+    float da = compact_deriv(w, inv_r2, a, xa, QUADRATIC);
+    float db = compact_deriv(w, inv_r2, a, xb, QUADRATIC);
+    float c = l * (QUADRATIC ? 0.7745966692 : 0.4472135955);   // √(3/5) or 1/√5
+    float dm = compact_deriv(w, inv_r2, a, clamp(-c, xa, xb), QUADRATIC);
+    float dp = compact_deriv(w, inv_r2, a, clamp(c, xa, xb), QUADRATIC);
+    float d0 = QUADRATIC ? compact_deriv(w, inv_r2, a, clamp(0.0, xa, xb), true) : da;
+    k.lo = min(min(min(da, db), min(dm, dp)), d0);
+    k.hi = max(max(max(da, db), max(dm, dp)), d0);
     return k;
+}
+
+// k' or k'' of the Gaussian amp e^{-α x²} at x.
+float gaussian_deriv(float amp, float alpha, float x, bool QUADRATIC) {
+    float k = amp * exp(-alpha * x * x);
+    return QUADRATIC ? 2.0 * alpha * (2.0 * alpha * x * x - 1.0) * k : -2.0 * alpha * x * k;
 }
 
 Taylor gaussian_taylor(float w, float alpha, float h2, float x0, float x1, bool QUADRATIC) {
     g_evals += 1u;
     float amp = w * exp(-alpha * h2);
-    vec3 d0 = gaussian_derivs(amp, alpha, x0);
-    vec3 d1 = gaussian_derivs(amp, alpha, x1);
-    vec2 r = vec2(min(DERIV(d0), DERIV(d1)), max(DERIV(d0), DERIV(d1)));
-    if (QUADRATIC) {
-        float c = sqrt(1.5 / alpha);
-        if (x0 < 0.0 && 0.0 < x1) widen(r, gaussian_derivs(amp, alpha, 0.0).z);
-        if (x0 < -c && -c < x1) widen(r, gaussian_derivs(amp, alpha, -c).z);
-        if (x0 < c && c < x1) widen(r, gaussian_derivs(amp, alpha, c).z);
-    } else {
-        float c = inversesqrt(2.0 * alpha);
-        if (x0 < -c && -c < x1) widen(r, gaussian_derivs(amp, alpha, -c).y);
-        if (x0 < c && c < x1) widen(r, gaussian_derivs(amp, alpha, c).y);
-    }
-    return Taylor(d0.x, d0.y, r.x, r.y);
+    vec3 v0 = gaussian_derivs(amp, alpha, x0);
+    float d0 = QUADRATIC ? v0.z : v0.y;
+    float d1 = gaussian_deriv(amp, alpha, x1, QUADRATIC);
+    float c = QUADRATIC ? sqrt(1.5 / alpha) : inversesqrt(2.0 * alpha);
+    float dm = gaussian_deriv(amp, alpha, clamp(-c, x0, x1), QUADRATIC);
+    float dp = gaussian_deriv(amp, alpha, clamp(c, x0, x1), QUADRATIC);
+    float dz = QUADRATIC ? gaussian_deriv(amp, alpha, clamp(0.0, x0, x1), true) : d0;
+    return Taylor(v0.x, v0.y, min(min(min(d0, d1), min(dm, dp)), dz), max(max(max(d0, d1), max(dm, dp)), dz));
 }
 
 // One primitive's Taylor data along o + t u on [t0, t1].
