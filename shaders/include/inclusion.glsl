@@ -338,6 +338,12 @@ Taylor prim_terms(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1) {
 // The bound of the specialised inclusion method for f = max over groups
 // (sums) - iso on [t0, t1]: per-primitive terms add within a group (Eq. 16),
 // and groups combine by the bottom-up max (Section 5.2, Appendix C).
+Bound group_bound(Taylor s, bool quadratic) {
+    return quadratic
+        ? Bound(s.value, s.slope, 0.5 * s.lo, s.slope, 0.5 * s.hi)      // Eq. 19
+        : Bound(s.value, s.lo, 0.0, s.hi, 0.0);                          // Eq. 13-16
+}
+
 Bound method_bound(vec3 o, vec3 u, float t0, float t1) {
     bool quadratic = SC_METHOD == METHOD_QUADRATIC_TAYLOR;
     uint n = globals.sizes.x;
@@ -346,21 +352,12 @@ Bound method_bound(vec3 o, vec3 u, float t0, float t1) {
     bool have = false;
     Taylor s = Taylor(0.0, 0.0, 0.0, 0.0);
     uint group = 0u;
-    for (uint i = 0u; i <= n; ++i) {
-        if (i < n && !prim_active(i)) continue;
-        bool flush = i == n;
-        GpuPrimitive pr;
-        if (!flush) {
-            pr = prims[i];
-            flush = SC_MULTI_GROUP != 0u && pr.ids.y != group;
-        }
-        if (flush) {
-            Bound b = quadratic
-                ? Bound(s.value, s.slope, 0.5 * s.lo, s.slope, 0.5 * s.hi)      // Eq. 19
-                : Bound(s.value, s.lo, 0.0, s.hi, 0.0);                          // Eq. 13-16
-            best = have ? max_bound(best, b, len, quadratic) : b;
+    for (uint i = 0u; i < n; ++i) {
+        if (!prim_active(i)) continue;
+        GpuPrimitive pr = prims[i];
+        if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
+            best = have ? max_bound(best, group_bound(s, quadratic), len, quadratic) : group_bound(s, quadratic);
             have = true;
-            if (i == n) break;
             s = Taylor(0.0, 0.0, 0.0, 0.0);
             group = pr.ids.y;
         }
@@ -370,6 +367,7 @@ Bound method_bound(vec3 o, vec3 u, float t0, float t1) {
         s.lo += k.lo;
         s.hi += k.hi;
     }
+    best = have ? max_bound(best, group_bound(s, quadratic), len, quadratic) : group_bound(s, quadratic);
     best.v -= globals.march.x;
     return best;
 }
