@@ -52,7 +52,8 @@ struct MarchArgs {
     #[arg(long)]
     max_steps: Option<u32>,
     /// Interval growth k of Algorithm 1 (next interval = k x last step);
-    /// default: the scene's, else 1.5 for segment tracing and 2 otherwise.
+    /// default: the scene's, else 1.5 for segment, 3 for linear-taylor,
+    /// 2 for the other methods.
     #[arg(long, value_name = "K")]
     growth: Option<f64>,
 }
