@@ -200,15 +200,15 @@ pub fn max_bound(f: &Bound, g: &Bound, len: f64, quadratic: bool) -> Bound {
 /// The Taylor bound of the whole field minus iso: per group, then the max
 /// of groups (the paper's mixed methods on a max scene, Table 3).
 pub fn field_taylor(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order) -> Bound {
-    let mut out: Option<Bound> = None;
-    for g in &field.groups {
-        let b = group_taylor(g, o, u, t0, t1, order);
-        out = Some(match out {
-            None => b,
-            Some(prev) => max_bound(&prev, &b, t1 - t0, order == Order::Quadratic),
-        });
-    }
-    let mut b = out.expect("a field has at least one group");
+    max_of_groups(field, t1 - t0, order == Order::Quadratic, |g| group_taylor(g, o, u, t0, t1, order))
+}
+
+/// `f = max over groups - iso` from each group's bound: the bottom-up max
+/// (quadratic or linear upper bound) of `group_bound` over the groups.
+fn max_of_groups(field: &Field, len: f64, quadratic: bool, group_bound: impl Fn(&[PrimEval]) -> Bound) -> Bound {
+    let mut groups = field.groups.iter().map(|g| group_bound(g));
+    let first = groups.next().expect("a field has at least one group");
+    let mut b = groups.fold(first, |prev, b| max_bound(&prev, &b, len, quadratic));
     b.v -= field.iso;
     b
 }
@@ -274,9 +274,6 @@ impl Lin {
         Lin { v, lo: -v * self.hi, hi: chord * self.lo }
     }
 
-    pub fn at_lo(&self, tau: f64) -> f64 {
-        self.v + self.lo * tau
-    }
     pub fn at_hi(&self, tau: f64) -> f64 {
         self.v + self.hi * tau
     }
@@ -358,19 +355,11 @@ impl PrimEval {
 /// linear max across groups.
 pub fn field_linear(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64) -> Bound {
     let len = t1 - t0;
-    let mut out: Option<Bound> = None;
-    for g in &field.groups {
+    max_of_groups(field, len, false, |g| {
         let s = g.iter().fold(Lin { v: 0.0, lo: 0.0, hi: 0.0 }, |s, p| {
             let k = p.linear(o, u, t0, len);
             Lin { v: s.v + k.v, lo: s.lo + k.lo, hi: s.hi + k.hi }
         });
-        let b = Bound { v: s.v, a_lo: s.lo, b_lo: 0.0, a_hi: s.hi, b_hi: 0.0, t_valid: t1 };
-        out = Some(match out {
-            None => b,
-            Some(prev) => max_bound(&prev, &b, len, false),
-        });
-    }
-    let mut b = out.expect("a field has at least one group");
-    b.v -= field.iso;
-    b
+        Bound { v: s.v, a_lo: s.lo, b_lo: 0.0, a_hi: s.hi, b_hi: 0.0, t_valid: t1 }
+    })
 }

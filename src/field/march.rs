@@ -31,11 +31,7 @@ pub struct MarchResult {
 /// The first crossing of `o + t u` on `[t0, t1]` found by `method`.
 pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64, s: MarchSettings) -> MarchResult {
     let at = |t: f64| field.value(o + t * u);
-    let refine = |a: f64, b: f64| {
-        let m = bisect(&at, a, b, false, s.tolerance);
-        // The GPU returns the inside end of the bracket; within tolerance.
-        (m + 0.5 * s.tolerance).min(b)
-    };
+    let refine = |a: f64, b: f64| refine_inside(&at, a, b, s.tolerance);
     let mut r = MarchResult { hit: None, steps: 0, out_of_steps: false };
     if !(t1 >= t0) {
         return r;
@@ -90,6 +86,13 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
     }
 }
 
+/// Bisection of a crossing in `[a, b]` (outside at a) to `tolerance`,
+/// reported at the bracket's inside end like the GPU's refinement.
+fn refine_inside(at: &impl Fn(f64) -> f64, a: f64, b: f64, tolerance: f64) -> f64 {
+    let m = bisect(at, a, b, false, tolerance);
+    (m + 0.5 * tolerance).min(b)
+}
+
 /// Front-to-back bisection with pruning (the GPU's stackless traversal in
 /// recursive form).
 fn bisection(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64, s: MarchSettings) -> MarchResult {
@@ -121,8 +124,7 @@ fn bisection(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
         }
         if len <= s.min_step || depth >= 30 {
             if at(b) >= 0.0 {
-                let m = bisect(&at, a, b, false, s.tolerance);
-                r.hit = Some((m + 0.5 * s.tolerance).min(b));
+                r.hit = Some(refine_inside(&at, a, b, s.tolerance));
                 return r;
             }
             continue;

@@ -137,7 +137,7 @@ pub struct MarchStats {
 }
 
 impl MarchStats {
-    /// Statistics of `results`, skipping padding entries marked by `counted`.
+    /// Statistics of `results` (callers leave out padding rays).
     pub fn of<'a>(results: impl IntoIterator<Item = &'a GpuResult>, gpu_ns: Option<f64>) -> MarchStats {
         let mut s = MarchStats::default();
         let (mut hits, mut steps, mut evals, mut refine, mut oos) = (0u64, 0u64, 0u64, 0u64, 0u64);
