@@ -22,6 +22,6 @@ void main() {
         bounds[i] = GpuBound(vec4(r.x, 0.0, 0.0, t1), vec4(r.y, 0.0, 0.0, 0.0));
         return;
     }
-    Bound b = method_bound(q.o.xyz, q.d.xyz, t0, t1);
-    bounds[i] = GpuBound(vec4(b.v, b.a_lo, b.b_lo, t1), vec4(b.v, b.a_hi, b.b_hi, 0.0));
+    Bound b = method_bound(q.o.xyz, q.d.xyz, t0, t1);   // t1: where the bound is valid
+    bounds[i] = GpuBound(vec4(b.v, b.a_lo, b.b_lo, t1), vec4(b.v, b.a_hi, b.b_hi, b.e_hi));
 }

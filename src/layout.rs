@@ -107,6 +107,9 @@ pub const METHOD_QUADRATIC_TAYLOR: u32 = 3;
 pub const METHOD_LINEAR: u32 = 4;
 pub const METHOD_LINEAR_BISECTION: u32 = 5;
 pub const METHOD_RAA: u32 = 6;
+pub const METHOD_QUADRATIC: u32 = 7;
+pub const METHOD_QUADRATIC_RELAXED_T0: u32 = 8;
+pub const METHOD_QUADRATIC_RELAXED_MAX: u32 = 9;
 
 /// Specialization constants as `(constant_id, name)`; all are `uint`.
 /// `SC_HAS_*` are 0 or 1: a pipeline keeps only the code paths its scene uses.
@@ -118,6 +121,7 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
     (4, "SC_MULTI_GROUP"),
     (5, "SC_SHADE"),
     (6, "SC_CULL"),
+    (7, "SC_EXTENSION"),
 ];
 
 /// Integer constants shared with GLSL, as `(name, value)`.
@@ -129,6 +133,9 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("METHOD_LINEAR", METHOD_LINEAR),
     ("METHOD_LINEAR_BISECTION", METHOD_LINEAR_BISECTION),
     ("METHOD_RAA", METHOD_RAA),
+    ("METHOD_QUADRATIC", METHOD_QUADRATIC),
+    ("METHOD_QUADRATIC_RELAXED_T0", METHOD_QUADRATIC_RELAXED_T0),
+    ("METHOD_QUADRATIC_RELAXED_MAX", METHOD_QUADRATIC_RELAXED_MAX),
     ("PRIM_COMPACT_POINT", PRIM_COMPACT_POINT),
     ("PRIM_GAUSSIAN_POINT", PRIM_GAUSSIAN_POINT),
     ("PRIM_COMPACT_PLANE", PRIM_COMPACT_PLANE),

@@ -3,6 +3,7 @@
 use std::fmt;
 use std::str::FromStr;
 
+use crate::field::quad::ExpUpper;
 use crate::layout;
 
 /// A ray-marching method. Each is a specialization of the one march shader.
@@ -25,6 +26,15 @@ pub enum Method {
     /// Revised affine arithmetic with bisection ([FPC10], the paper's
     /// baseline of Figure 10 e).
     Raa,
+    /// Bottom-up quadratic forward bounds (Section 6.2) with validity
+    /// intervals for the Gaussian's exp (Appendix B, Figure 21 a).
+    Quadratic,
+    /// Bottom-up quadratic, exp bounded on the whole interval by relaxing
+    /// the bound's value at the query point (Figure 21 b).
+    QuadraticRelaxedT0,
+    /// Bottom-up quadratic, exp bounded on the whole interval by relaxing
+    /// the bound at the kernel's maximum (Figure 21 c).
+    QuadraticRelaxedMax,
 }
 
 impl Method {
@@ -36,6 +46,9 @@ impl Method {
         Method::Linear,
         Method::LinearBisection,
         Method::Raa,
+        Method::Quadratic,
+        Method::QuadraticRelaxedT0,
+        Method::QuadraticRelaxedMax,
     ];
 
     pub fn name(self) -> &'static str {
@@ -47,6 +60,9 @@ impl Method {
             Method::Linear => "linear",
             Method::LinearBisection => "linear-bisection",
             Method::Raa => "raa",
+            Method::Quadratic => "quadratic",
+            Method::QuadraticRelaxedT0 => "quadratic-relaxed-t0",
+            Method::QuadraticRelaxedMax => "quadratic-relaxed-max",
         }
     }
 
@@ -58,7 +74,7 @@ impl Method {
         match self {
             Method::Sphere | Method::Segment => 1.5,
             Method::LinearTaylor => 3.0,
-            Method::QuadraticTaylor | Method::Linear | Method::LinearBisection | Method::Raa => 2.0,
+            _ => 2.0,
         }
     }
 
@@ -72,6 +88,19 @@ impl Method {
             Method::Linear => layout::METHOD_LINEAR,
             Method::LinearBisection => layout::METHOD_LINEAR_BISECTION,
             Method::Raa => layout::METHOD_RAA,
+            Method::Quadratic => layout::METHOD_QUADRATIC,
+            Method::QuadraticRelaxedT0 => layout::METHOD_QUADRATIC_RELAXED_T0,
+            Method::QuadraticRelaxedMax => layout::METHOD_QUADRATIC_RELAXED_MAX,
+        }
+    }
+
+    /// The Gaussian's exp rule of a bottom-up quadratic method.
+    pub fn exp_upper(self) -> Option<ExpUpper> {
+        match self {
+            Method::Quadratic => Some(ExpUpper::Validity),
+            Method::QuadraticRelaxedT0 => Some(ExpUpper::RelaxedT0),
+            Method::QuadraticRelaxedMax => Some(ExpUpper::RelaxedMax),
+            _ => None,
         }
     }
 }

@@ -7,7 +7,7 @@ mod common;
 
 use common::*;
 use glam::DVec3;
-use isomarch::field::bounds::{Bound, Order, field_linear, field_taylor};
+use isomarch::field::bounds::{Bound, Order, field_bound};
 use isomarch::field::Field;
 use isomarch::layout::GpuRay;
 use isomarch::render::Renderer;
@@ -17,12 +17,17 @@ use isomarch::Method;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-/// Every inclusion method with a bound of its own, and its f64 mirror
-/// (`None`: bottom-up linear; `Some(order)`: a Taylor method).
-const INCLUSION: [(Method, Option<Order>); 3] = [
-    (Method::LinearTaylor, Some(Order::Linear)),
-    (Method::QuadraticTaylor, Some(Order::Quadratic)),
-    (Method::Linear, None),
+/// Every inclusion method with a forward bound of its own, with the
+/// per-primitive extension of compact kernels on or off (it changes only
+/// the bottom-up quadratic bounds).
+const INCLUSION: [(Method, bool); 7] = [
+    (Method::LinearTaylor, true),
+    (Method::QuadraticTaylor, true),
+    (Method::Linear, true),
+    (Method::Quadratic, true),
+    (Method::Quadratic, false),
+    (Method::QuadraticRelaxedT0, true),
+    (Method::QuadraticRelaxedMax, true),
 ];
 
 /// `(ray, t0, t1)` queries drawn where the field varies: on protocol rays,
@@ -71,12 +76,19 @@ struct Checked {
 
 /// Checks forward and containment for `bounds` on `queries`; errors are
 /// relative to `scale` (the largest kernel weight sum of a group).
-fn check(field: &Field, queries: &[GpuRay], bounds: &[Bound], scale: f64) -> Checked {
+fn check(field: &Field, method: Method, queries: &[GpuRay], bounds: &[Bound], scale: f64) -> Checked {
     let mut c = Checked { worst_forward: 0.0, worst_outside: 0.0 };
     for (q, b) in queries.iter().zip(bounds) {
         let r = Ray::from_gpu(q);
-        for x in [b.v, b.a_lo, b.b_lo, b.a_hi, b.b_hi] {
+        for x in [b.v, b.a_lo, b.b_lo, b.a_hi, b.b_hi, b.e_hi, b.t_valid] {
             assert!(x.is_finite(), "non-finite bound {b:?} on {r:?}");
+        }
+        assert!(b.t_valid > r.t0 || r.t1 <= r.t0 || b.t_valid >= r.t1, "{method}: empty validity interval {b:?} on {r:?}");
+        // Only the relaxed-t0 upper bound may start above the value.
+        if method == Method::QuadraticRelaxedT0 {
+            assert!(b.e_hi >= 0.0, "{method}: upper bound starts below the value: {b:?}");
+        } else {
+            assert!(b.e_hi == 0.0, "{method}: not forward: {b:?}");
         }
         let f0 = field.value(r.o + r.t0 * r.d);
         c.worst_forward = c.worst_forward.max((b.v - f0).abs() / scale);
@@ -105,20 +117,18 @@ fn gpu_bounds(r: &mut Renderer, method: Method, queries: &[GpuRay]) -> Vec<Bound
             b_lo: g.lo[2].into(),
             a_hi: g.hi[1].into(),
             b_hi: g.hi[2].into(),
+            e_hi: g.hi[3].into(),
             t_valid: g.lo[3].into(),
         })
         .collect()
 }
 
-fn f64_bounds(field: &Field, order: Option<Order>, queries: &[GpuRay]) -> Vec<Bound> {
+fn f64_bounds(field: &Field, method: Method, extension: bool, queries: &[GpuRay]) -> Vec<Bound> {
     queries
         .iter()
         .map(|q| {
             let r = Ray::from_gpu(q);
-            match order {
-                Some(order) => field_taylor(field, r.o, r.d, r.t0, r.t1, order),
-                None => field_linear(field, r.o, r.d, r.t0, r.t1),
-            }
+            field_bound(field, method, extension, r.o, r.d, r.t0, r.t1).expect("an inclusion method")
         })
         .collect()
 }
@@ -157,12 +167,13 @@ fn inclusion_bounds_are_forward_and_contain_the_field_on_gpu_and_f64() {
         assert!(2 * meeting >= queries.len(), "{name}: only {meeting} of {} queries meet a support", queries.len());
         let mut renderer = Renderer::new(&ctx, &s).unwrap();
         let sc = scale(&s);
-        for (method, order) in INCLUSION {
-            let exact = check(&field, &queries, &f64_bounds(&field, order, &queries), sc);
+        for (method, extension) in INCLUSION {
+            let exact = check(&field, method, &queries, &f64_bounds(&field, method, extension, &queries), sc);
             assert!(exact.worst_forward < 1e-12, "{name} {method} f64: forward error {:e}", exact.worst_forward);
             // Dense samples of an exact bound may touch it; f64 rounding only.
             assert!(exact.worst_outside < 1e-9, "{name} {method} f64: a sample lies {:e} outside", exact.worst_outside);
-            let gpu = check(&field, &queries, &gpu_bounds(&mut renderer, method, &queries), sc);
+            renderer.extension = extension;
+            let gpu = check(&field, method, &queries, &gpu_bounds(&mut renderer, method, &queries), sc);
             // f32: a few ulps of the field's scale, amplified along τ.
             assert!(gpu.worst_forward < 2e-6, "{name} {method} GPU: forward error {:e}", gpu.worst_forward);
             assert!(gpu.worst_outside < 2e-5, "{name} {method} GPU: a sample lies {:e} outside", gpu.worst_outside);
@@ -174,15 +185,16 @@ fn inclusion_bounds_are_forward_and_contain_the_field_on_gpu_and_f64() {
 #[test]
 fn gpu_bounds_equal_the_f64_mirror() {
     let ctx = gpu();
-    let mut kept = Vec::new();
+    let (mut kept, mut validity) = (Vec::new(), Vec::new());
     for (name, s) in all_scenes() {
         let field = Field::new(&s);
         let queries = cases(&s, 5, 300);
         let mut renderer = Renderer::new(&ctx, &s).unwrap();
         let sc = scale(&s);
-        for (method, order) in INCLUSION {
+        for (method, extension) in INCLUSION {
+            renderer.extension = extension;
             let g = gpu_bounds(&mut renderer, method, &queries);
-            let e = f64_bounds(&field, order, &queries);
+            let e = f64_bounds(&field, method, extension, &queries);
             for ((q, g), e) in queries.iter().zip(&g).zip(&e) {
                 let len = f64::from(q.d[3] - q.o[3]).max(1e-3);
                 // Compare the bounds' values across the interval, relative
@@ -192,21 +204,32 @@ fn gpu_bounds_equal_the_f64_mirror() {
                     let dh = (g.hi(tau) - e.hi(tau)).abs();
                     // f32 error: relative to the field's scale and to the
                     // size of the bound's own terms.
-                    let terms = e.a_lo.abs().max(e.a_hi.abs()) * tau + e.b_lo.abs().max(e.b_hi.abs()) * tau * tau;
+                    let terms = e.e_hi + e.a_lo.abs().max(e.a_hi.abs()) * tau + e.b_lo.abs().max(e.b_hi.abs()) * tau * tau;
                     let tol = 1e-4 * (sc * (1.0 + len * len) + terms);
-                    assert!(dl.max(dh) < tol, "{name} {method}: GPU {g:?} vs f64 {e:?} at τ={tau}");
+                    assert!(dl.max(dh) < tol, "{name} {method}: GPU {g:?} vs f64 {e:?} at τ={tau} on {q:?}");
                 }
+                // The GPU shortens the interval where the f64 mirror does.
                 let requested = f64::from(q.d[3] - q.o[3]);
+                assert!((g.t_valid - e.t_valid).abs() <= 1e-4 * (1.0 + requested), "{name} {method}: valid to {} on the GPU, {} in f64", g.t_valid, e.t_valid);
                 if requested > 0.0 {
-                    kept.push((e.t_valid - f64::from(q.o[3])) / requested);
+                    let fraction = (e.t_valid - f64::from(q.o[3])) / requested;
+                    if method == Method::Quadratic {
+                        validity.push(fraction);
+                    } else {
+                        kept.push(fraction);
+                    }
                 }
             }
         }
     }
     let mean = kept.iter().sum::<f64>() / kept.len() as f64;
     // These bounds need no validity interval: the whole interval is kept.
-    println!("mean fraction of the requested interval kept: {mean:.4}");
-    assert!(mean > 0.999, "Taylor bounds kept only {mean} of their intervals");
+    println!("mean fraction of the requested interval kept without validity intervals: {mean:.4}");
+    assert!(mean == 1.0, "bounds without validity intervals kept only {mean} of their intervals");
+    // Gaussians' validity intervals (Appendix B) shorten some queries.
+    let mean = validity.iter().sum::<f64>() / validity.len() as f64;
+    println!("mean fraction kept by the validity intervals of `quadratic`: {mean:.4}");
+    assert!(mean < 1.0 && mean > 0.2, "validity intervals kept {mean} of the requested intervals");
     assert_no_validation(&ctx);
 }
 
@@ -275,9 +298,10 @@ fn degenerate_queries_give_finite_bounds_and_marches_end() {
     ];
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
     let field = Field::new(&s);
-    for &(method, order) in &INCLUSION {
+    for &(method, extension) in &INCLUSION {
+        renderer.extension = extension;
         let g = gpu_bounds(&mut renderer, method, &queries);
-        let e = f64_bounds(&field, order, &queries);
+        let e = f64_bounds(&field, method, extension, &queries);
         for (b, q) in g.iter().chain(&e).zip(queries.iter().cycle()) {
             for x in [b.v, b.a_lo, b.b_lo, b.a_hi, b.b_hi] {
                 assert!(x.is_finite(), "{method}: non-finite bound {b:?} for {q:?}");

@@ -100,10 +100,16 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
                 max_steps: s.marching.max_steps,
                 growth: 0.0,
                 tolerance: s.refine_tolerance(),
+                extension: true,
             };
-            for &method in Method::ALL {
+            // Every method, and bottom-up quadratic also without the
+            // per-primitive extension of compact kernels.
+            let variants = Method::ALL.iter().map(|&m| (m, true)).chain([(Method::Quadratic, false)]);
+            for (method, extension) in variants {
+                let method_label = if extension { method.to_string() } else { format!("{method} (no extension)") };
+                renderer.extension = extension;
                 // The f64 mirror of the marcher, on the first rays of the set.
-                let settings = isomarch::field::march::MarchSettings { growth: method.default_growth(), ..settings };
+                let settings = isomarch::field::march::MarchSettings { growth: method.default_growth(), extension, ..settings };
                 let mirror_tol = 2.0 * s.refine_tolerance();
                 for (r, reference) in rays.iter().zip(&reference).take(256) {
                     let ray = Ray::from_gpu(r);
@@ -111,14 +117,14 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
                         continue;
                     }
                     let m = isomarch::field::march::march(&field, method, ray.o, ray.d, ray.t0, ray.t1, settings);
-                    assert!(!m.out_of_steps, "seed {seed} {method} f64: out of steps");
+                    assert!(!m.out_of_steps, "seed {seed} {method_label} f64: out of steps");
                     let ok = match (m.hit, reference) {
                         (Some(t), Some(tr)) => (t - tr).abs() <= mirror_tol,
                         (None, None) => true,
                         _ => false,
                     };
                     if !ok {
-                        report.push(format!("seed {seed} max={max_of_groups} {method} f64 mirror: hit {:?}, reference {reference:?}", m.hit));
+                        report.push(format!("seed {seed} max={max_of_groups} {method_label} f64 mirror: hit {:?}, reference {reference:?}", m.hit));
                     }
                 }
                 let out = renderer.march(method, &rays, |_| {}).unwrap();
@@ -127,7 +133,7 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
                 let tol = 2.0 * s.refine_tolerance() + 1e-5;
                 let acc = accuracy(&out.results, &reference, tol, tol);
                 let stats = MarchStats::of(&out.results, None);
-                assert_eq!(stats.out_of_steps_rate, 0.0, "seed {seed} {method}: rays ran out of steps");
+                assert_eq!(stats.out_of_steps_rate, 0.0, "seed {seed} {method_label}: rays ran out of steps");
                 let bad = acc.misses + acc.false_hits;
                 let allowed = KNOWN_EXCEPTIONS
                     .iter()
@@ -135,7 +141,7 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
                     .map_or(0, |e| e.2);
                 if bad > allowed {
                     report.push(format!(
-                        "seed {seed} max={max_of_groups} {method}: {} missed or late, {} early or false (max error {:e})",
+                        "seed {seed} max={max_of_groups} {method_label}: {} missed or late, {} early or false (max error {:e})",
                         acc.misses, acc.false_hits, acc.max_abs_error
                     ));
                 }

@@ -2,7 +2,8 @@
 // src/field/bounds.rs, whose comments carry the derivations.
 //
 // A Bound on [t0, t1] is lo(τ) = v + a_lo τ + b_lo τ² and
-// hi(τ) = v + a_hi τ + b_hi τ², τ = t - t0, exact at t0 (forward).
+// hi(τ) = v + e_hi + a_hi τ + b_hi τ², τ = t - t0, exact at t0 (forward)
+// except for quadratic-relaxed-t0, whose upper bound starts e_hi >= 0 above.
 #ifndef INCLUSION_GLSL
 #define INCLUSION_GLSL
 
@@ -14,7 +15,12 @@ struct Bound {
     float v;
     float a_lo, b_lo;
     float a_hi, b_hi;
+    float e_hi;
 };
+
+float bound_hi(Bound b, float tau) {
+    return b.v + b.e_hi + tau * (b.a_hi + b.b_hi * tau);
+}
 
 struct Taylor {
     float value, slope, lo, hi;
@@ -123,16 +129,20 @@ Bound max_bound(Bound f, Bound g, float len, bool QUADRATIC) {
     bool take_f = f.v > g.v || (f.v == g.v && f_end_lo >= g_end_lo);
     r.a_lo = take_f ? f.a_lo : g.a_lo;
     r.b_lo = take_f ? f.b_lo : g.b_lo;
-    float end = max(f.v + len * (f.a_hi + f.b_hi * len), g.v + len * (g.a_hi + g.b_hi * len));
+    float f_start = f.v + f.e_hi;
+    float g_start = g.v + g.e_hi;
+    float start = max(f_start, g_start);
+    r.e_hi = start - r.v;
+    float end = max(bound_hi(f, len), bound_hi(g, len));
     if (len <= 0.0) {
         r.a_hi = max(f.a_hi, g.a_hi);
         r.b_hi = max(f.b_hi, g.b_hi);
     } else if (QUADRATIC) {
-        float mid = max(f.v + 0.5 * f.a_hi * len, g.v + 0.5 * g.a_hi * len);
-        r.a_hi = 2.0 * (mid - r.v) / len;
-        r.b_hi = (r.v - 2.0 * mid + end) / (len * len);
+        float mid = max(f_start + 0.5 * f.a_hi * len, g_start + 0.5 * g.a_hi * len);
+        r.a_hi = 2.0 * (mid - start) / len;
+        r.b_hi = (start - 2.0 * mid + end) / (len * len);
     } else {
-        r.a_hi = (end - r.v) / len;
+        r.a_hi = (end - start) / len;
         r.b_hi = 0.0;
     }
     return r;
@@ -323,10 +333,185 @@ vec2 field_raa(vec3 o, vec3 u, float ta, float tb) {
     return max(best, aa_range(s)) - globals.march.x;
 }
 
-// One primitive's terms for the specialised method on [t0, t1]: value,
-// exact slope at t0, and the range summed into the group's bound (of f'
-// for linear Taylor, of f'' for quadratic Taylor, the slopes of the
-// bottom-up linear bound for `linear`).
+// Bottom-up quadratic bounds (Section 6.2), mirrored from
+// src/field/quad.rs, whose comments carry the derivations.
+Bound quad_exact(float v, float a, float b) {
+    return Bound(v, a, b, a, b, 0.0);
+}
+
+Bound quad_add(Bound f, Bound g) {
+    return Bound(f.v + g.v, f.a_lo + g.a_lo, f.b_lo + g.b_lo, f.a_hi + g.a_hi, f.b_hi + g.b_hi, f.e_hi + g.e_hi);
+}
+
+Bound quad_scale(Bound f, float w) {
+    return Bound(w * f.v, w * f.a_lo, w * f.b_lo, w * f.a_hi, w * f.b_hi, w * f.e_hi);
+}
+
+// Product of forward bounds on [0, len] (Figure 8): the derivative of each
+// of the four quartics, split at its inflection, is bounded per piece by
+// its tangent at the piece's start and its chord; a line U0 + s τ above
+// the upper lines (below the lower ones), integrated. U0 is the largest
+// P'(0); the line stays above each first-piece line to the piece's end and
+// above each second-piece line at len (see quad::mul for why that holds).
+Bound quad_mul(Bound f, Bound g, float len) {
+    float u0 = max(max(f.v * g.a_lo + g.v * f.a_lo, f.v * g.a_hi + g.v * f.a_lo),
+                   max(f.v * g.a_lo + g.v * f.a_hi, f.v * g.a_hi + g.v * f.a_hi));
+    float d0 = min(min(f.v * g.a_lo + g.v * f.a_lo, f.v * g.a_hi + g.v * f.a_lo),
+                   min(f.v * g.a_lo + g.v * f.a_hi, f.v * g.a_hi + g.v * f.a_hi));
+    float up_slope = -3.0e38, down_slope = 3.0e38;
+    for (int i = 0; i < 2; ++i) {
+        float af = i == 0 ? f.a_lo : f.a_hi;
+        float bf = i == 0 ? f.b_lo : f.b_hi;
+        for (int j = 0; j < 2; ++j) {
+            float ag = j == 0 ? g.a_lo : g.a_hi;
+            float bg = j == 0 ? g.b_lo : g.b_hi;
+            float e0 = f.v * ag + g.v * af;
+            float e1 = 2.0 * (af * ag + bf * g.v + bg * f.v);
+            float e2 = 3.0 * (af * bg + ag * bf);
+            float e3 = 4.0 * bf * bg;
+            float inflection = e3 != 0.0 ? -e2 / (3.0 * e3) : -1.0;
+            float split = inflection > 0.0 && inflection < len ? inflection : len;
+            // First piece [0, split]: tangent at 0 (slope e1) and chord.
+            float chord = e1 + split * (e2 + split * e3);
+            bool convex = e2 + 1.5 * e3 * split >= 0.0;
+            float up = convex ? chord : e1;
+            float down = convex ? e1 : chord;
+            float inv = split > 0.0 ? 1.0 / split : 0.0;
+            up_slope = max(up_slope, up + (e0 - u0) * inv);
+            down_slope = min(down_slope, down + (e0 - d0) * inv);
+            if (split < len) {
+                // Second piece [split, len]: tangent at split and chord.
+                float p = e0 + split * (e1 + split * (e2 + split * e3));
+                float tangent = e1 + split * (2.0 * e2 + 3.0 * split * e3);
+                chord = e1 + e2 * (split + len) + e3 * (split * split + split * len + len * len);
+                convex = e2 + 1.5 * e3 * (split + len) >= 0.0;
+                up = convex ? chord : tangent;
+                down = convex ? tangent : chord;
+                up_slope = max(up_slope, (p + up * (len - split) - u0) / len);
+                down_slope = min(down_slope, (p + down * (len - split) - d0) / len);
+            }
+        }
+    }
+    return Bound(f.v * g.v, d0, 0.5 * down_slope, u0, 0.5 * up_slope, 0.0);
+}
+
+// Compact kernel w (a - x²/R²)³ on [x0, x0 + len] (Figure 11). With
+// SC_EXTENSION: the bound of the part inside the support, extended to the
+// whole interval (Section 6.2.1, Figure 9); without: max(Q, 0)³ on the
+// whole interval.
+Bound compact_quad(float w, float inv_r2, float a, float x0, float len) {
+    Bound zero = quad_exact(0.0, 0.0, 0.0);
+    if (a <= 0.0) return zero;
+    float l = sqrt(a / inv_r2);
+    float xa = max(x0, -l);
+    float xb = min(x0 + len, l);
+    if (xa >= xb) return zero;      // the support misses the interval: only this test
+    g_evals += 1u;
+    if (SC_EXTENSION == 0u) {
+        Bound m = max_bound(quad_exact(a - x0 * x0 * inv_r2, -2.0 * x0 * inv_r2, -inv_r2), zero, len, true);
+        return quad_scale(quad_mul(quad_mul(m, m, len), m, len), w);
+    }
+    float sub = xb - xa;
+    bool entering = xa > x0;
+    Bound q = quad_exact(entering ? 0.0 : a - xa * xa * inv_r2, -2.0 * xa * inv_r2, -inv_r2);
+    Bound k = quad_scale(quad_mul(quad_mul(q, q, sub), q, sub), w);
+    if (entering) {
+        float span = xb - x0;
+        float lambda = (xa - x0) / span;
+        float c1 = k.v + 0.5 * k.a_hi * sub;
+        float c2 = max(bound_hi(k, sub), 0.0);
+        float d1 = max((c1 - lambda * c2) / (1.0 - lambda), 0.0);
+        k = Bound(0.0, 0.0, 0.0, 2.0 * d1 / span, (c2 - 2.0 * d1) / (span * span), 0.0);
+    }
+    if (xb < x0 + len) {
+        float tau1 = xb - x0;
+        float y = 1.0 / len;
+        float raise = -k.v * y * y - k.a_hi * y - k.b_hi;
+        if (k.v > 0.0 && k.a_hi < 0.0) {
+            float vertex = -k.a_hi / (2.0 * k.v);
+            if (vertex > y && -k.a_hi * tau1 < 2.0 * k.v) raise = max(raise, -0.5 * k.a_hi * vertex - k.b_hi);
+        }
+        k.b_hi += max(raise, 0.0);
+        k.b_lo -= max(k.v * y * y + k.a_lo * y + k.b_lo, 0.0);
+    }
+    return k;
+}
+
+// Slope of the chord of w e^{-y} between y0 and y1 (y >= 0), by a series
+// of (e^{-d} - 1)/d when they are close.
+float exp_chord(float w, float y0, float y1) {
+    float d = y1 - y0;
+    if (abs(d) < 1e-2) {
+        float e = abs(d);
+        return w * exp(-min(y0, y1)) * (-1.0 + e * (0.5 - e * (1.0 / 6.0 - e / 24.0)));
+    }
+    return w * (exp(-y1) - exp(-y0)) / d;
+}
+
+// Gaussian w e^{-y}, y = α (x² + h²), on [x0, x0 + len] (Appendix B):
+// tangent below, chord through y(t0) above; where the interval holds the
+// closest approach, the method's rule (Figure 21): shorten `len` (validity
+// interval), or relax the bound at t0 or at the maximum.
+Bound gaussian_quad(float w, float alpha, float h2, float x0, inout float len) {
+    g_evals += 1u;
+    float y0 = alpha * (x0 * x0 + h2);
+    float y1 = 2.0 * alpha * x0;
+    float v = w * exp(-y0);
+    Bound b = Bound(v, -v * y1, -v * alpha, 0.0, 0.0, 0.0);
+    float x_end = x0 + len;
+    float y_end = alpha * (x_end * x_end + h2);
+    float slope;
+    if (x0 >= 0.0 || y_end <= y0) {
+        float x_other = x0 >= 0.0 ? x_end : min(x_end, 0.0);
+        slope = exp_chord(w, y0, alpha * (x_other * x_other + h2));
+    } else {
+        float y_min = alpha * h2;
+        if (SC_METHOD == METHOD_QUADRATIC_RELAXED_T0) {
+            slope = exp_chord(w, y_min, y_end);
+            b.e_hi = max((y0 - y_min) * (slope - exp_chord(w, y_min, y0)), 0.0);
+        } else if (SC_METHOD == METHOD_QUADRATIC_RELAXED_MAX) {
+            slope = exp_chord(w, y0, y_end);
+            b.a_hi = 2.0 * alpha * abs(x0) * max(slope - exp_chord(w, y_min, y0), 0.0);
+        } else {
+            len = -2.0 * x0;
+            slope = exp_chord(w, y0, y_min);
+        }
+    }
+    b.a_hi += slope * y1;
+    b.b_hi = slope * alpha;
+    return b;
+}
+
+Bound prim_quad(GpuPrimitive pr, vec3 o, vec3 u, float t0, inout float len) {
+    uint kind = pr.ids.x;
+    if (!kind_enabled(kind)) return quad_exact(0.0, 0.0, 0.0);
+    if (kind == PRIM_COMPACT_PLANE) {
+        float sigma = dot(pr.a.xyz, u);
+        float s0 = dot(pr.a.xyz, o + t0 * u) - pr.a.w;
+        if (abs(sigma) < 1e-9) {
+            float dummy;
+            float q = s0 * s0;
+            return quad_exact(q < pr.b.x * pr.b.x ? kernel_value(kind, pr.b, q, dummy) : 0.0, 0.0, 0.0);
+        }
+        return compact_quad(pr.b.z, pr.b.y * sigma * sigma, 1.0, s0 / sigma, len);
+    }
+    vec3 co = pr.a.xyz - o;
+    float tc = dot(co, u);
+    vec3 wv = co - tc * u;
+    float h2 = dot(wv, wv);
+    float x0 = t0 - tc;
+    if (kind == PRIM_GAUSSIAN_POINT) return gaussian_quad(pr.b.z, pr.b.y, h2, x0, len);
+    return compact_quad(pr.b.z, pr.b.y, 1.0 - h2 * pr.b.y, x0, len);
+}
+
+bool bottom_up_quadratic() {
+    return SC_METHOD == METHOD_QUADRATIC || SC_METHOD == METHOD_QUADRATIC_RELAXED_T0 || SC_METHOD == METHOD_QUADRATIC_RELAXED_MAX;
+}
+
+// One primitive's terms for the Taylor and bottom-up linear methods on
+// [t0, t1]: value, exact slope at t0, and the range summed into the
+// group's bound (of f' for linear Taylor, of f'' for quadratic Taylor, the
+// slopes of the bottom-up linear bound for `linear`).
 Taylor prim_terms(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1) {
     if (SC_METHOD == METHOD_LINEAR || SC_METHOD == METHOD_LINEAR_BISECTION) {
         Lin k = prim_linear(pr, o, u, t0, t1 - t0);
@@ -335,40 +520,58 @@ Taylor prim_terms(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1) {
     return prim_taylor(pr, o, u, t0, t1, SC_METHOD == METHOD_QUADRATIC_TAYLOR);
 }
 
-// The bound of the specialised inclusion method for f = max over groups
-// (sums) - iso on [t0, t1]: per-primitive terms add within a group (Eq. 16),
-// and groups combine by the bottom-up max (Section 5.2, Appendix C).
-Bound group_bound(Taylor s, bool quadratic) {
-    return quadratic
-        ? Bound(s.value, s.slope, 0.5 * s.lo, s.slope, 0.5 * s.hi)      // Eq. 19
-        : Bound(s.value, s.lo, 0.0, s.hi, 0.0);                          // Eq. 13-16
+// A group's bound: summed terms (Eq. 13-16, Eq. 19), or the summed
+// bottom-up quadratic bounds.
+Bound group_bound(Taylor s, Bound sum) {
+    if (bottom_up_quadratic()) return sum;
+    return SC_METHOD == METHOD_QUADRATIC_TAYLOR
+        ? Bound(s.value, s.slope, 0.5 * s.lo, s.slope, 0.5 * s.hi, 0.0)   // Eq. 19
+        : Bound(s.value, s.lo, 0.0, s.hi, 0.0, 0.0);                       // Eq. 13-15
 }
 
-Bound method_bound(vec3 o, vec3 u, float t0, float t1) {
-    bool quadratic = SC_METHOD == METHOD_QUADRATIC_TAYLOR;
+// The bound of the specialised inclusion method for f = max over groups
+// (sums) - iso on [t0, t1]: per-primitive bounds add within a group
+// (Eq. 16), and groups combine by the bottom-up max (Section 5.2,
+// Appendix C). A validity interval may shorten t1 (Section 4.2): later
+// primitives are bounded on the shorter interval, and earlier bounds stay
+// valid on it.
+Bound method_bound(vec3 o, vec3 u, float t0, inout float t1) {
+    bool quadratic = SC_METHOD == METHOD_QUADRATIC_TAYLOR || bottom_up_quadratic();
     uint n = globals.sizes.x;
     float len = t1 - t0;
-    Bound best;
+    Bound zero = Bound(0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    Bound best = zero;
     bool have = false;
+    // The Taylor and linear methods sum per-primitive terms, the bottom-up
+    // quadratic ones whole bounds; the specialization keeps one of the two.
     Taylor s = Taylor(0.0, 0.0, 0.0, 0.0);
+    Bound sq = zero;
     uint group = 0u;
     for (uint i = 0u; i < n; ++i) {
         if (!prim_active(i)) continue;
         GpuPrimitive pr = prims[i];
         if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
-            best = have ? max_bound(best, group_bound(s, quadratic), len, quadratic) : group_bound(s, quadratic);
+            Bound g = group_bound(s, sq);
+            best = have ? max_bound(best, g, len, quadratic) : g;
             have = true;
             s = Taylor(0.0, 0.0, 0.0, 0.0);
+            sq = zero;
             group = pr.ids.y;
         }
-        Taylor k = prim_terms(pr, o, u, t0, t1);
-        s.value += k.value;
-        s.slope += k.slope;
-        s.lo += k.lo;
-        s.hi += k.hi;
+        if (bottom_up_quadratic()) {
+            sq = quad_add(sq, prim_quad(pr, o, u, t0, len));
+        } else {
+            Taylor k = prim_terms(pr, o, u, t0, t1);
+            s.value += k.value;
+            s.slope += k.slope;
+            s.lo += k.lo;
+            s.hi += k.hi;
+        }
     }
-    best = have ? max_bound(best, group_bound(s, quadratic), len, quadratic) : group_bound(s, quadratic);
+    Bound g = group_bound(s, sq);
+    best = have ? max_bound(best, g, len, quadratic) : g;
     best.v -= globals.march.x;
+    t1 = t0 + len;
     return best;
 }
 
@@ -384,8 +587,11 @@ float first_root(float g, float A, float B) {
 }
 
 // Algorithm 1's next root: of the upper bound outside, of the lower inside.
+// A relaxed upper bound that starts at or above 0 allows no step.
 float next_root(Bound b) {
-    return b.v < 0.0 ? first_root(-b.v, b.a_hi, b.b_hi) : first_root(b.v, -b.a_lo, -b.b_lo);
+    if (b.v >= 0.0) return first_root(b.v, -b.a_lo, -b.b_lo);
+    float start = b.v + b.e_hi;
+    return start >= 0.0 ? 0.0 : first_root(-start, b.a_hi, b.b_hi);
 }
 
 #endif

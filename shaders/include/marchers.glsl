@@ -63,9 +63,9 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
         f = field_and_lipschitz(o, u, m.t, t_end, lambda);   // Eq. 11, BENCHMARKS.md
         step = lambda > 0.0 ? min(abs(f) / lambda, len) : len;
     } else {
-        Bound b = method_bound(o, u, m.t, t_end);
+        Bound b = method_bound(o, u, m.t, t_end);   // may shorten t_end
         f = b.v;
-        step = min(next_root(b), len);
+        step = min(next_root(b), t_end - m.t);
     }
     if (f >= 0.0) {
         if (m.steps > 1u) {
@@ -127,7 +127,8 @@ void bisection_step(vec3 o, vec3 u, float tmin, float tmax, inout March m) {
     if (SC_METHOD == METHOD_RAA) {
         range = field_raa(o, u, a, b);
     } else {
-        Bound bd = method_bound(o, u, a, b);
+        float end = b;
+        Bound bd = method_bound(o, u, a, end);
         range = vec2(bd.v + min(0.0, bd.a_lo * len), bd.v + max(0.0, bd.a_hi * len));
     }
     if (range.y < 0.0) {

@@ -4,7 +4,9 @@
 //! A bound on `[t0, t1]` is a pair of quadratics in `τ = t - t0`,
 //! `lo(τ) = v + a_lo τ + b_lo τ²` and `hi(τ) = v + a_hi τ + b_hi τ²`, both
 //! exact at `t0` (forward, Section 4.2) and valid for `τ ∈ [0, t_valid - t0]`.
-//! Linear bounds have `b = 0`.
+//! Linear bounds have `b = 0`. One construction relaxes exactness on the
+//! upper side (`quadratic-relaxed-t0`, Figure 21 b): its upper bound starts
+//! `e_hi >= 0` above `v`; every other bound has `e_hi = 0`.
 //!
 //! Per primitive, the kernel is a function of `x = t - tc` (tc the closest
 //! approach) with `q = x² + h²`; its derivatives' ranges over an interval
@@ -25,7 +27,9 @@
 
 use glam::DVec3;
 
+use super::quad::{QuadOptions, field_quadratic};
 use super::{Field, KernelEval, PrimEval};
+use crate::method::Method;
 
 /// A forward bound on `[t0, t_valid]`; see the module documentation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,6 +39,8 @@ pub struct Bound {
     pub b_lo: f64,
     pub a_hi: f64,
     pub b_hi: f64,
+    /// How far the upper bound starts above `v` (0 for forward bounds).
+    pub e_hi: f64,
     pub t_valid: f64,
 }
 
@@ -43,7 +49,7 @@ impl Bound {
         self.v + tau * (self.a_lo + self.b_lo * tau)
     }
     pub fn hi(&self, tau: f64) -> f64 {
-        self.v + tau * (self.a_hi + self.b_hi * tau)
+        self.v + self.e_hi + tau * (self.a_hi + self.b_hi * tau)
     }
 }
 
@@ -168,10 +174,10 @@ pub fn group_taylor(group: &[PrimEval], o: DVec3, u: DVec3, t0: f64, t1: f64, or
     }
     match order {
         // Eq. 13-15: asymmetric slopes from the range of f'.
-        Order::Linear => Bound { v: s.value, a_lo: s.min, b_lo: 0.0, a_hi: s.max, b_hi: 0.0, t_valid: t1 },
+        Order::Linear => Bound { v: s.value, a_lo: s.min, b_lo: 0.0, a_hi: s.max, b_hi: 0.0, e_hi: 0.0, t_valid: t1 },
         // Eq. 19: f(t0) + f'(t0) τ + ½ f''_{min/max} τ².
         Order::Quadratic => {
-            Bound { v: s.value, a_lo: s.slope, b_lo: 0.5 * s.min, a_hi: s.slope, b_hi: 0.5 * s.max, t_valid: t1 }
+            Bound { v: s.value, a_lo: s.slope, b_lo: 0.5 * s.min, a_hi: s.slope, b_hi: 0.5 * s.max, e_hi: 0.0, t_valid: t1 }
         }
     }
 }
@@ -181,20 +187,22 @@ pub fn group_taylor(group: &[PrimEval], o: DVec3, u: DVec3, t0: f64, t1: f64, or
 /// larger start value. Upper: for linear inputs the chord to the larger end
 /// value; for quadratic ones the Bézier control polygon whose points are the
 /// larger of the inputs' control points (valid since Bernstein weights are
-/// non-negative, and exact at t0).
+/// non-negative, and exact at t0 for forward inputs; a relaxed start
+/// `e_hi` is carried as the larger start of the upper bounds).
 pub fn max_bound(f: &Bound, g: &Bound, len: f64, quadratic: bool) -> Bound {
     let v = f.v.max(g.v);
     let lower = if f.v > g.v || (f.v == g.v && f.lo(len) >= g.lo(len)) { f } else { g };
+    let start = f.hi(0.0).max(g.hi(0.0));
     let end = f.hi(len).max(g.hi(len));
     let (a_hi, b_hi) = if len <= 0.0 {
         (f.a_hi.max(g.a_hi), f.b_hi.max(g.b_hi))
     } else if quadratic {
-        let mid = (f.v + 0.5 * f.a_hi * len).max(g.v + 0.5 * g.a_hi * len);
-        (2.0 * (mid - v) / len, (v - 2.0 * mid + end) / (len * len))
+        let mid = (f.hi(0.0) + 0.5 * f.a_hi * len).max(g.hi(0.0) + 0.5 * g.a_hi * len);
+        (2.0 * (mid - start) / len, (start - 2.0 * mid + end) / (len * len))
     } else {
-        ((end - v) / len, 0.0)
+        ((end - start) / len, 0.0)
     };
-    Bound { v, a_lo: lower.a_lo, b_lo: lower.b_lo, a_hi, b_hi, t_valid: f.t_valid.min(g.t_valid) }
+    Bound { v, a_lo: lower.a_lo, b_lo: lower.b_lo, a_hi, b_hi, e_hi: start - v, t_valid: f.t_valid.min(g.t_valid) }
 }
 
 /// The Taylor bound of the whole field minus iso: per group, then the max
@@ -232,9 +240,15 @@ pub fn first_root(g: f64, a: f64, b: f64) -> f64 {
 }
 
 /// Where a march from `t0` may step: the first root of the upper bound when
-/// outside (`v < 0`), of the lower bound when inside (Algorithm 1).
+/// outside (`v < 0`), of the lower bound when inside (Algorithm 1). A
+/// relaxed upper bound that starts at or above 0 allows no step.
 pub fn next_root(b: &Bound) -> f64 {
-    if b.v < 0.0 { first_root(-b.v, b.a_hi, b.b_hi) } else { first_root(b.v, -b.a_lo, -b.b_lo) }
+    if b.v < 0.0 {
+        let start = b.hi(0.0);
+        if start >= 0.0 { 0.0 } else { first_root(-start, b.a_hi, b.b_hi) }
+    } else {
+        first_root(b.v, -b.a_lo, -b.b_lo)
+    }
 }
 
 /// A bottom-up linear bound (Section 5.2): `v + lo τ <= f <= v + hi τ` on
@@ -360,6 +374,22 @@ pub fn field_linear(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64) -> Boun
             let k = p.linear(o, u, t0, len);
             Lin { v: s.v + k.v, lo: s.lo + k.lo, hi: s.hi + k.hi }
         });
-        Bound { v: s.v, a_lo: s.lo, b_lo: 0.0, a_hi: s.hi, b_hi: 0.0, t_valid: t1 }
+        Bound { v: s.v, a_lo: s.lo, b_lo: 0.0, a_hi: s.hi, b_hi: 0.0, e_hi: 0.0, t_valid: t1 }
+    })
+}
+
+/// The forward bound of `method` for the field minus iso on `[t0, t1]`
+/// (`t_valid` may be shorter); `None` for the methods without one (sphere,
+/// segment, revised affine arithmetic). `extension`: see [`QuadOptions`].
+pub fn field_bound(field: &Field, method: Method, extension: bool, o: DVec3, u: DVec3, t0: f64, t1: f64) -> Option<Bound> {
+    Some(match method {
+        Method::LinearTaylor => field_taylor(field, o, u, t0, t1, Order::Linear),
+        Method::QuadraticTaylor => field_taylor(field, o, u, t0, t1, Order::Quadratic),
+        Method::Linear | Method::LinearBisection => field_linear(field, o, u, t0, t1),
+        Method::Quadratic | Method::QuadraticRelaxedT0 | Method::QuadraticRelaxedMax => {
+            let exp_upper = method.exp_upper().expect("a bottom-up quadratic method");
+            field_quadratic(field, o, u, t0, t1, QuadOptions { exp_upper, extension })
+        }
+        Method::Sphere | Method::Segment | Method::Raa => return None,
     })
 }

@@ -4,7 +4,7 @@
 
 use glam::DVec3;
 
-use super::bounds::{Order, field_linear, field_taylor, next_root};
+use super::bounds::{field_bound, field_linear, next_root};
 use super::raa::field_raa;
 use super::reference::bisect;
 use super::Field;
@@ -17,6 +17,9 @@ pub struct MarchSettings {
     pub max_steps: u32,
     pub growth: f64,
     pub tolerance: f64,
+    /// Per-primitive extension of compact kernels' bottom-up quadratic
+    /// bounds (Section 6.2.1).
+    pub extension: bool,
 }
 
 /// What an f64 march found: the hit distance (the inside end of the
@@ -58,15 +61,11 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
                 let lambda = field.segment_lipschitz(o, u, t, t_end);
                 (f, if lambda > 0.0 { (f.abs() / lambda).min(len) } else { len })
             }
-            Method::LinearTaylor | Method::QuadraticTaylor | Method::Linear => {
-                let b = match method {
-                    Method::LinearTaylor => field_taylor(field, o, u, t, t_end, Order::Linear),
-                    Method::QuadraticTaylor => field_taylor(field, o, u, t, t_end, Order::Quadratic),
-                    _ => field_linear(field, o, u, t, t_end),
-                };
-                (b.v, next_root(&b).min(len))
+            _ => {
+                let b = field_bound(field, method, s.extension, o, u, t, t_end).expect("an inclusion method");
+                // Up to where the bound is valid (Section 4.2).
+                (b.v, next_root(&b).min(b.t_valid - t))
             }
-            Method::LinearBisection | Method::Raa => unreachable!("handled above"),
         };
         if f >= 0.0 {
             r.hit = Some(if r.steps > 1 { refine(t_prev, t) } else { t });

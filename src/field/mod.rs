@@ -3,6 +3,7 @@
 
 pub mod bounds;
 pub mod march;
+pub mod quad;
 pub mod raa;
 pub mod reference;
 

@@ -29,6 +29,17 @@ enum EntryPoint {
     BoundsProbe,
 }
 
+/// What a pipeline is specialised to: every setting that changes its
+/// specialization constants.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+struct PipelineKey {
+    entry: EntryPoint,
+    method: Method,
+    shade: bool,
+    cull: bool,
+    extension: bool,
+}
+
 /// Rays per dispatch: big images become many bounded dispatches.
 pub const TILE_RAYS: usize = 1 << 16;
 const WORKGROUP: usize = 64;
@@ -95,7 +106,7 @@ pub struct Renderer {
     states: Buffer,
     active: Buffer,
     slice_steps: u32,
-    pipelines: HashMap<(EntryPoint, Method, bool), ComputePipeline>,
+    pipelines: HashMap<PipelineKey, ComputePipeline>,
     submitter: Submitter,
     /// Give up when the GPU is not done by then.
     pub timeout: Duration,
@@ -106,6 +117,9 @@ pub struct Renderer {
     /// Skip, per ray, the primitives whose support the ray no longer meets
     /// (scenes of at most 64 primitives). Results are identical either way.
     pub cull: bool,
+    /// Per-primitive extension of compact kernels' bottom-up quadratic
+    /// bounds (Section 6.2.1); from the scene's `marching.extension`.
+    pub extension: bool,
 }
 
 /// The primitives in GPU layout, sorted by group.
@@ -164,7 +178,7 @@ fn globals(scene: &Scene, growth: f64) -> GpuGlobals {
 /// Per-ray support culling keeps one bit per primitive.
 pub const CULL_MAX_PRIMITIVES: usize = 64;
 
-pub fn specialization(scene: &Scene, method: Method, shade: bool, cull: bool) -> Vec<(u32, u32)> {
+pub fn specialization(scene: &Scene, method: Method, shade: bool, cull: bool, extension: bool) -> Vec<(u32, u32)> {
     let has = |pred: fn(&Primitive) -> bool| u32::from(scene.primitives().any(pred));
     let values = [
         ("SC_METHOD", method.shader_id()),
@@ -174,6 +188,7 @@ pub fn specialization(scene: &Scene, method: Method, shade: bool, cull: bool) ->
         ("SC_MULTI_GROUP", u32::from(scene.groups.len() > 1)),
         ("SC_SHADE", u32::from(shade)),
         ("SC_CULL", u32::from(cull && scene.primitive_count() <= CULL_MAX_PRIMITIVES)),
+        ("SC_EXTENSION", u32::from(extension)),
     ];
     values
         .iter()
@@ -223,6 +238,7 @@ impl Renderer {
             shade: true,
             growth: None,
             cull: true,
+            extension: scene.marching.extension,
         })
     }
 
@@ -231,9 +247,9 @@ impl Renderer {
     }
 
     fn pipeline(&mut self, entry: EntryPoint, method: Method) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
-        let key = (entry, method, self.cull);
+        let key = PipelineKey { entry, method, shade: self.shade, cull: self.cull, extension: self.extension };
         if !self.pipelines.contains_key(&key) {
-            let spec = specialization(&self.scene, method, self.shade, self.cull);
+            let spec = specialization(&self.scene, method, self.shade, self.cull, self.extension);
             let spirv = match entry {
                 EntryPoint::March => MARCH_SPV,
                 EntryPoint::BoundsProbe => BOUNDS_SPV,

@@ -74,11 +74,15 @@ pub struct MarchingFile {
     /// times the last step); default: each method's own.
     #[serde(default)]
     pub growth: Option<f64>,
+    /// Per-primitive extension of compact kernels' bottom-up quadratic
+    /// bounds (Section 6.2.1); off builds `max(Q, 0)³` instead.
+    #[serde(default = "default_extension")]
+    pub extension: bool,
 }
 
 impl Default for MarchingFile {
     fn default() -> Self {
-        MarchingFile { method: default_method(), min_step: default_min_step(), max_steps: default_max_steps(), growth: None }
+        MarchingFile { method: default_method(), min_step: default_min_step(), max_steps: default_max_steps(), growth: None, extension: default_extension() }
     }
 }
 
@@ -160,6 +164,11 @@ fn default_method() -> String {
 fn default_min_step() -> f64 {
     0.01
 }
+
+fn default_extension() -> bool {
+    true
+}
+
 fn default_max_steps() -> u32 {
     1000
 }

@@ -49,6 +49,9 @@ pub struct Marching {
     pub max_steps: u32,
     /// Interval growth k; `None`: the method's default.
     pub growth: Option<f64>,
+    /// Per-primitive extension of compact kernels' bottom-up quadratic
+    /// bounds (Section 6.2.1).
+    pub extension: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -352,7 +355,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         surface: c.color("surface", f.surface)?,
         lights,
         iso,
-        marching: Marching { method, min_step, max_steps: f.marching.max_steps, growth },
+        marching: Marching { method, min_step, max_steps: f.marching.max_steps, growth, extension: f.marching.extension },
         groups,
         bounds,
     })
