@@ -9,6 +9,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::field::Field;
+use crate::field::march::{MarchSettings, march};
+use crate::field::quad::QuadSettings;
 use crate::field::reference::{ReferenceOptions, first_hit};
 use crate::gpu::Context;
 use crate::layout::{FLAG_HIT, GpuResult, GpuRay};
@@ -16,7 +18,7 @@ use crate::method::Method;
 use crate::output::MarchStats;
 use crate::render::rays::{Ray, protocol_rays};
 use crate::render::Renderer;
-use crate::scene::Scene;
+use crate::scene::{Kernel, Primitive, Scene};
 
 /// BENCHMARKS.md: 1,048,576 rays unless told otherwise.
 pub const DEFAULT_RAYS: usize = 1 << 20;
@@ -42,6 +44,49 @@ pub struct MethodReport {
     /// Ratios to the first method of the run.
     pub step_ratio: f64,
     pub time_ratio: Option<f64>,
+    /// Mean over marching steps of the fraction of the requested interval
+    /// that validity intervals keep, from the f64 mirror of the march on
+    /// the first `VALIDITY_SAMPLE_RAYS` rays (`quadratic` on scenes with
+    /// Gaussians only).
+    pub validity_kept: Option<f64>,
+}
+
+/// Rays of the f64 mirror march that measures validity intervals.
+pub const VALIDITY_SAMPLE_RAYS: usize = 8192;
+
+/// One way to run a method: the settings a benchmark may compare.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Variant {
+    pub cull: bool,
+    pub quad: QuadSettings,
+}
+
+impl Variant {
+    /// Does this variant differ from `other` in a way that changes
+    /// `method` on `scene`?
+    fn matters(&self, other: &Variant, method: Method, scene: &Scene) -> bool {
+        let bottom_up = method.exp_upper().is_some();
+        let gaussian = |p: &Primitive| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. });
+        let (gaussians, compacts) = (scene.primitives().any(gaussian), scene.primitives().any(|p| !gaussian(p)));
+        self.cull != other.cull
+            || (bottom_up && compacts && self.quad.extension != other.quad.extension)
+            || (method == Method::Quadratic && gaussians && self.quad.validity != other.quad.validity)
+    }
+
+    /// The label suffix that tells this variant from `default`.
+    fn suffix(&self, default: &Variant) -> String {
+        let mut parts = Vec::new();
+        if self.cull != default.cull {
+            parts.push(if self.cull { "cull" } else { "no cull" }.to_string());
+        }
+        if self.quad.extension != default.quad.extension {
+            parts.push(if self.quad.extension { "extension" } else { "no extension" }.to_string());
+        }
+        if self.quad.validity != default.quad.validity {
+            parts.push(format!("validity: {}", self.quad.validity.name()));
+        }
+        if parts.is_empty() { String::new() } else { format!(" ({})", parts.join(", ")) }
+    }
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -123,14 +168,14 @@ pub fn accuracy(results: &[GpuResult], reference: &[Option<f64>], late_by: f64, 
     a
 }
 
-/// Runs every method on the same protocol rays and compares them; with
-/// both values in `culls`, each method runs with per-ray support culling
-/// and without (rows marked "no cull").
+/// Runs every method on the same protocol rays and compares them. Each
+/// method runs in each of `variants` that changes it (the first is the
+/// default; rows of the others are marked, e.g. "no cull").
 pub fn run(
     ctx: &Arc<Context>,
     scene: &Scene,
     methods: &[Method],
-    culls: &[bool],
+    variants: &[Variant],
     rays: usize,
     seed: u64,
     timeout: std::time::Duration,
@@ -140,18 +185,57 @@ pub fn run(
     let mut renderer = Renderer::new(ctx, scene)?;
     renderer.timeout = timeout;
     renderer.shade = false;
+    let default = variants.first().copied().unwrap_or(Variant { cull: true, quad: scene.marching.quad });
     let mut reports: Vec<MethodReport> = Vec::new();
-    for (&method, &cull) in methods.iter().flat_map(|m| culls.iter().map(move |c| (m, c))) {
-        let label = if cull || culls.len() == 1 { method.to_string() } else { format!("{method} (no cull)") };
-        renderer.cull = cull;
+    for &method in methods {
+        let mut done: Vec<Variant> = Vec::new();
+        for &variant in variants {
+            if done.iter().any(|d| !variant.matters(d, method, scene)) {
+                continue;
+            }
+            done.push(variant);
+            reports.push(run_one(&mut renderer, scene, method, variant, default, &ray_set, &reference, reports.first())?);
+        }
+    }
+    let ref_hits = reference.iter().filter(|r| r.is_some()).count();
+    Ok(BenchReport {
+        scene: scene.source.clone(),
+        device: ctx.info.name.clone(),
+        rays,
+        seed,
+        min_step: scene.marching.min_step,
+        max_steps: scene.marching.max_steps,
+        reference_hit_rate: ref_hits as f64 / rays.max(1) as f64,
+        methods: reports,
+    })
+}
+
+/// One row of the benchmark: `method` in `variant` on the ray set.
+#[allow(clippy::too_many_arguments)]
+fn run_one(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    method: Method,
+    variant: Variant,
+    default: Variant,
+    ray_set: &[GpuRay],
+    reference: &[Option<f64>],
+    first: Option<&MethodReport>,
+) -> Result<MethodReport> {
+    let rays = ray_set.len();
+    {
+        let label = format!("{method}{}", variant.suffix(&default));
+        renderer.cull = variant.cull;
+        renderer.quad = variant.quad;
         let bar = progress(rays as u64, &label);
-        let out = renderer.march(method, &ray_set, |done| bar.set_position(done as u64))?;
+        let out = renderer.march(method, ray_set, |done| bar.set_position(done as u64))?;
         bar.finish_and_clear();
         let stats = MarchStats::of(&out.results, out.gpu_ns);
-        let acc = accuracy(&out.results, &reference, scene.marching.min_step, scene.refine_tolerance());
+        let acc = accuracy(&out.results, reference, scene.marching.min_step, scene.refine_tolerance());
         let n = rays.max(1) as f64;
-        let first = reports.first();
-        reports.push(MethodReport {
+        let has_gaussians = scene.primitives().any(|p| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. }));
+        let validity_kept = (method == Method::Quadratic && has_gaussians).then(|| validity_kept(scene, method, variant.quad, ray_set));
+        Ok(MethodReport {
             method: label,
             steps_per_ray: stats.steps_per_ray,
             evals_per_ray: stats.evals_per_ray,
@@ -168,19 +252,36 @@ pub fn run(
                 None => stats.ns_per_ray.map(|_| 1.0),
                 Some(f) => stats.ns_per_ray.zip(f.ns_per_ray).map(|(a, b)| a / b),
             },
-        });
+            validity_kept,
+        })
     }
-    let ref_hits = reference.iter().filter(|r| r.is_some()).count();
-    Ok(BenchReport {
-        scene: scene.source.clone(),
-        device: ctx.info.name.clone(),
-        rays,
-        seed,
+}
+
+/// The mean fraction of the requested interval kept by validity intervals
+/// per marching step, from the f64 mirror of the march on the first
+/// `VALIDITY_SAMPLE_RAYS` rays.
+fn validity_kept(scene: &Scene, method: Method, quad: QuadSettings, rays: &[GpuRay]) -> f64 {
+    let field = Field::new(scene);
+    let settings = MarchSettings {
         min_step: scene.marching.min_step,
         max_steps: scene.marching.max_steps,
-        reference_hit_rate: ref_hits as f64 / rays.max(1) as f64,
-        methods: reports,
-    })
+        growth: scene.marching.growth.unwrap_or_else(|| method.default_growth()),
+        tolerance: scene.refine_tolerance(),
+        quad,
+    };
+    let (kept, steps) = rays
+        .par_iter()
+        .take(VALIDITY_SAMPLE_RAYS)
+        .map(|r| {
+            let ray = Ray::from_gpu(r);
+            if ray.misses() {
+                return (0.0, 0);
+            }
+            let m = march(&field, method, ray.o, ray.d, ray.t0, ray.t1, settings);
+            (m.kept, m.steps)
+        })
+        .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    kept / f64::from(steps.max(1))
 }
 
 /// The report as a markdown table.
@@ -210,6 +311,16 @@ pub fn markdown(report: &BenchReport) -> String {
             m.max_abs_error,
             m.step_ratio,
             m.time_ratio.map_or("n/a".into(), |r| format!("{r:.3}x")),
+        ));
+    }
+    let mut first = true;
+    for m in report.methods.iter().filter(|m| m.validity_kept.is_some()) {
+        s.push_str(if std::mem::take(&mut first) { "\n" } else { "" });
+        s.push_str(&format!(
+            "{}: validity intervals keep {:.3} of the requested interval per step (mean; f64 mirror, first {} rays)\n",
+            m.method,
+            m.validity_kept.unwrap_or(1.0),
+            VALIDITY_SAMPLE_RAYS.min(report.rays)
         ));
     }
     s

@@ -79,7 +79,8 @@ gpu_structs! {
     /// Scene-wide constants. `march`: x iso, y minimum step, z refinement
     /// tolerance, w global Lipschitz bound (sphere tracing).
     /// `sizes`: x primitive count, y group count, z light count, w max steps.
-    /// `tuning`: x interval growth factor k (Algorithm 1), yzw reserved.
+    /// `tuning`: x interval growth factor k (Algorithm 1), y the peak below
+    /// which a Gaussian imposes no validity interval (`quadratic`), zw reserved.
     struct GpuGlobals { march: Vec4, sizes: UVec4, tuning: Vec4, background: Vec4, surface: Vec4, ambient: Vec4 }
 
     /// A directional light: `dir.xyz` towards the light (unit), `color.rgb`

@@ -14,6 +14,7 @@ use isomarch::output::{self, Aov, png_bytes, write_atomic};
 use isomarch::render::offscreen::{RenderJob, render_frame, render_to_files};
 use isomarch::scene::Scene;
 use isomarch::bench;
+use isomarch::field::quad::{QuadSettings, ValidityScope};
 
 #[derive(Parser)]
 #[command(name = "isomarch", version, about = "Ray marching of implicit surfaces on Vulkan compute", long_about = "\
@@ -112,6 +113,16 @@ enum Command {
         /// or both to measure it in one run.
         #[arg(long, value_parser = ["on", "off", "both"], default_value = "on")]
         cull: String,
+        /// Per-primitive extension of compact kernels for the bottom-up
+        /// quadratic methods (Section 6.2.1): on, off, or both to measure it
+        /// in one run (default: the scene's marching.extension).
+        #[arg(long, value_parser = ["on", "off", "both"])]
+        extension: Option<String>,
+        /// Which Gaussians impose validity intervals on `quadratic`:
+        /// significant (peak on the ray >= 1e-3 iso), every, or both
+        /// (default: the scene's marching.validity).
+        #[arg(long, value_parser = ["significant", "every", "both"])]
+        validity: Option<String>,
         /// Also render the scene's camera view with each method and write
         /// their step heatmaps side by side on one scale (like Figure 10).
         #[arg(long, value_name = "PNG")]
@@ -127,6 +138,39 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
+}
+
+/// The variants a bench compares: the first is the default (the scene's
+/// settings, culling on unless `--cull off`), then each `both` adds the
+/// other value of its setting to every variant so far.
+fn bench_variants(scene: &Scene, cull: &str, extension: Option<&str>, validity: Option<&str>) -> Vec<bench::Variant> {
+    let mut base = bench::Variant { cull: cull != "off", quad: scene.marching.quad };
+    match extension {
+        Some("on") => base.quad.extension = true,
+        Some("off") => base.quad.extension = false,
+        _ => {}
+    }
+    match validity {
+        Some("significant") => base.quad.validity = ValidityScope::Significant,
+        Some("every") => base.quad.validity = ValidityScope::Every,
+        _ => {}
+    }
+    let mut variants = vec![base];
+    let mut add = |f: &dyn Fn(bench::Variant) -> bench::Variant| {
+        let more: Vec<_> = variants.iter().map(|&v| f(v)).collect();
+        variants.extend(more);
+    };
+    if cull == "both" {
+        add(&|v| bench::Variant { cull: !v.cull, ..v });
+    }
+    if extension == Some("both") {
+        add(&|v| bench::Variant { quad: QuadSettings { extension: !v.quad.extension, ..v.quad }, ..v });
+    }
+    if validity == Some("both") {
+        let other = |s| if s == ValidityScope::Every { ValidityScope::Significant } else { ValidityScope::Every };
+        add(&|v| bench::Variant { quad: QuadSettings { validity: other(v.quad.validity), ..v.quad }, ..v });
+    }
+    variants
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -213,19 +257,15 @@ fn run(cli: Cli) -> Result<()> {
             );
             check_validation(&ctx)
         }
-        Command::Bench { scene, methods, rays, seed, json, cull, heatmap_grid, size, steps_max, march, gpu } => {
+        Command::Bench { scene, methods, rays, seed, json, cull, extension, validity, heatmap_grid, size, steps_max, march, gpu } => {
             let methods = parse_list(&methods).map_err(anyhow::Error::msg).context("--methods")?;
             if rays == 0 {
                 bail!("--rays must be at least 1");
             }
             let scene = load_scene(&scene, &march)?;
             let (ctx, timeout) = open(&gpu)?;
-            let culls: &[bool] = match cull.as_str() {
-                "off" => &[false],
-                "both" => &[false, true],
-                _ => &[true],
-            };
-            let report = bench::run(&ctx, &scene, &methods, culls, rays, seed, timeout)?;
+            let variants = bench_variants(&scene, &cull, extension.as_deref(), validity.as_deref());
+            let report = bench::run(&ctx, &scene, &methods, &variants, rays, seed, timeout)?;
             print!("{}", bench::markdown(&report));
             if let Some(path) = json {
                 write_atomic(&path, &serde_json::to_vec_pretty(&report)?)?;

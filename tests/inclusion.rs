@@ -9,6 +9,7 @@ use common::*;
 use glam::DVec3;
 use isomarch::field::bounds::{Bound, Order, field_bound};
 use isomarch::field::Field;
+use isomarch::field::quad::{QuadSettings, ValidityScope};
 use isomarch::layout::GpuRay;
 use isomarch::render::Renderer;
 use isomarch::render::rays::{Ray, protocol_rays};
@@ -17,17 +18,20 @@ use isomarch::Method;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-/// Every inclusion method with a forward bound of its own, with the
-/// per-primitive extension of compact kernels on or off (it changes only
-/// the bottom-up quadratic bounds).
-const INCLUSION: [(Method, bool); 7] = [
-    (Method::LinearTaylor, true),
-    (Method::QuadraticTaylor, true),
-    (Method::Linear, true),
-    (Method::Quadratic, true),
-    (Method::Quadratic, false),
-    (Method::QuadraticRelaxedT0, true),
-    (Method::QuadraticRelaxedMax, true),
+const DEFAULT: QuadSettings = QuadSettings { extension: true, validity: ValidityScope::Significant };
+
+/// Every inclusion method with a forward bound of its own, and the
+/// bottom-up quadratic one also without the per-primitive extension of
+/// compact kernels and with validity intervals for every Gaussian.
+const INCLUSION: [(Method, QuadSettings); 8] = [
+    (Method::LinearTaylor, DEFAULT),
+    (Method::QuadraticTaylor, DEFAULT),
+    (Method::Linear, DEFAULT),
+    (Method::Quadratic, DEFAULT),
+    (Method::Quadratic, QuadSettings { extension: false, ..DEFAULT }),
+    (Method::Quadratic, QuadSettings { validity: ValidityScope::Every, ..DEFAULT }),
+    (Method::QuadraticRelaxedT0, DEFAULT),
+    (Method::QuadraticRelaxedMax, DEFAULT),
 ];
 
 /// `(ray, t0, t1)` queries drawn where the field varies: on protocol rays,
@@ -123,12 +127,12 @@ fn gpu_bounds(r: &mut Renderer, method: Method, queries: &[GpuRay]) -> Vec<Bound
         .collect()
 }
 
-fn f64_bounds(field: &Field, method: Method, extension: bool, queries: &[GpuRay]) -> Vec<Bound> {
+fn f64_bounds(field: &Field, method: Method, quad: QuadSettings, queries: &[GpuRay]) -> Vec<Bound> {
     queries
         .iter()
         .map(|q| {
             let r = Ray::from_gpu(q);
-            field_bound(field, method, extension, r.o, r.d, r.t0, r.t1).expect("an inclusion method")
+            field_bound(field, method, quad, r.o, r.d, r.t0, r.t1).expect("an inclusion method")
         })
         .collect()
 }
@@ -167,16 +171,16 @@ fn inclusion_bounds_are_forward_and_contain_the_field_on_gpu_and_f64() {
         assert!(2 * meeting >= queries.len(), "{name}: only {meeting} of {} queries meet a support", queries.len());
         let mut renderer = Renderer::new(&ctx, &s).unwrap();
         let sc = scale(&s);
-        for (method, extension) in INCLUSION {
-            let exact = check(&field, method, &queries, &f64_bounds(&field, method, extension, &queries), sc);
-            assert!(exact.worst_forward < 1e-12, "{name} {method} f64: forward error {:e}", exact.worst_forward);
+        for (method, quad) in INCLUSION {
+            let exact = check(&field, method, &queries, &f64_bounds(&field, method, quad, &queries), sc);
+            assert!(exact.worst_forward < 1e-12, "{name} {method} {quad:?} f64: forward error {:e}", exact.worst_forward);
             // Dense samples of an exact bound may touch it; f64 rounding only.
-            assert!(exact.worst_outside < 1e-9, "{name} {method} f64: a sample lies {:e} outside", exact.worst_outside);
-            renderer.extension = extension;
+            assert!(exact.worst_outside < 1e-9, "{name} {method} {quad:?} f64: a sample lies {:e} outside", exact.worst_outside);
+            renderer.quad = quad;
             let gpu = check(&field, method, &queries, &gpu_bounds(&mut renderer, method, &queries), sc);
             // f32: a few ulps of the field's scale, amplified along τ.
-            assert!(gpu.worst_forward < 2e-6, "{name} {method} GPU: forward error {:e}", gpu.worst_forward);
-            assert!(gpu.worst_outside < 2e-5, "{name} {method} GPU: a sample lies {:e} outside", gpu.worst_outside);
+            assert!(gpu.worst_forward < 2e-6, "{name} {method} {quad:?} GPU: forward error {:e}", gpu.worst_forward);
+            assert!(gpu.worst_outside < 2e-5, "{name} {method} {quad:?} GPU: a sample lies {:e} outside", gpu.worst_outside);
         }
     }
     assert_no_validation(&ctx);
@@ -191,10 +195,10 @@ fn gpu_bounds_equal_the_f64_mirror() {
         let queries = cases(&s, 5, 300);
         let mut renderer = Renderer::new(&ctx, &s).unwrap();
         let sc = scale(&s);
-        for (method, extension) in INCLUSION {
-            renderer.extension = extension;
+        for (method, quad) in INCLUSION {
+            renderer.quad = quad;
             let g = gpu_bounds(&mut renderer, method, &queries);
-            let e = f64_bounds(&field, method, extension, &queries);
+            let e = f64_bounds(&field, method, quad, &queries);
             for ((q, g), e) in queries.iter().zip(&g).zip(&e) {
                 let len = f64::from(q.d[3] - q.o[3]).max(1e-3);
                 // Compare the bounds' values across the interval, relative
@@ -206,11 +210,11 @@ fn gpu_bounds_equal_the_f64_mirror() {
                     // size of the bound's own terms.
                     let terms = e.e_hi + e.a_lo.abs().max(e.a_hi.abs()) * tau + e.b_lo.abs().max(e.b_hi.abs()) * tau * tau;
                     let tol = 1e-4 * (sc * (1.0 + len * len) + terms);
-                    assert!(dl.max(dh) < tol, "{name} {method}: GPU {g:?} vs f64 {e:?} at τ={tau} on {q:?}");
+                    assert!(dl.max(dh) < tol, "{name} {method} {quad:?}: GPU {g:?} vs f64 {e:?} at τ={tau} on {q:?}");
                 }
                 // The GPU shortens the interval where the f64 mirror does.
                 let requested = f64::from(q.d[3] - q.o[3]);
-                assert!((g.t_valid - e.t_valid).abs() <= 1e-4 * (1.0 + requested), "{name} {method}: valid to {} on the GPU, {} in f64", g.t_valid, e.t_valid);
+                assert!((g.t_valid - e.t_valid).abs() <= 1e-4 * (1.0 + requested), "{name} {method} {quad:?}: valid to {} on the GPU, {} in f64", g.t_valid, e.t_valid);
                 if requested > 0.0 {
                     let fraction = (e.t_valid - f64::from(q.o[3])) / requested;
                     if method == Method::Quadratic {
@@ -298,10 +302,10 @@ fn degenerate_queries_give_finite_bounds_and_marches_end() {
     ];
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
     let field = Field::new(&s);
-    for &(method, extension) in &INCLUSION {
-        renderer.extension = extension;
+    for &(method, quad) in &INCLUSION {
+        renderer.quad = quad;
         let g = gpu_bounds(&mut renderer, method, &queries);
-        let e = f64_bounds(&field, method, extension, &queries);
+        let e = f64_bounds(&field, method, quad, &queries);
         for (b, q) in g.iter().chain(&e).zip(queries.iter().cycle()) {
             for x in [b.v, b.a_lo, b.b_lo, b.a_hi, b.b_hi] {
                 assert!(x.is_finite(), "{method}: non-finite bound {b:?} for {q:?}");

@@ -5,6 +5,7 @@ mod common;
 use common::*;
 use glam::DVec3;
 use isomarch::bench::{accuracy, reference_hits};
+use isomarch::field::quad::{QuadSettings, ValidityScope};
 use isomarch::layout::{FLAG_HIT, GpuResult};
 use isomarch::output::MarchStats;
 use isomarch::render::Renderer;
@@ -100,16 +101,18 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
                 max_steps: s.marching.max_steps,
                 growth: 0.0,
                 tolerance: s.refine_tolerance(),
-                extension: true,
+                quad: QuadSettings::default(),
             };
             // Every method, and bottom-up quadratic also without the
             // per-primitive extension of compact kernels.
-            let variants = Method::ALL.iter().map(|&m| (m, true)).chain([(Method::Quadratic, false)]);
-            for (method, extension) in variants {
-                let method_label = if extension { method.to_string() } else { format!("{method} (no extension)") };
-                renderer.extension = extension;
+            let every = QuadSettings { validity: ValidityScope::Every, ..QuadSettings::default() };
+            let no_extension = QuadSettings { extension: false, ..QuadSettings::default() };
+            let variants = Method::ALL.iter().map(|&m| (m, QuadSettings::default())).chain([(Method::Quadratic, no_extension), (Method::Quadratic, every)]);
+            for (method, quad) in variants {
+                let method_label = format!("{method} ({quad:?})");
+                renderer.quad = quad;
                 // The f64 mirror of the marcher, on the first rays of the set.
-                let settings = isomarch::field::march::MarchSettings { growth: method.default_growth(), extension, ..settings };
+                let settings = isomarch::field::march::MarchSettings { growth: method.default_growth(), quad, ..settings };
                 let mirror_tol = 2.0 * s.refine_tolerance();
                 for (r, reference) in rays.iter().zip(&reference).take(256) {
                     let ray = Ray::from_gpu(r);

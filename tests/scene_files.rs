@@ -65,3 +65,31 @@ fn every_shipped_scene_loads() {
     }
     assert!(n >= 2, "found only {n} scenes");
 }
+
+/// fig10-gauss is fig10 with each compact kernel of radius R replaced by a
+/// Gaussian with r = R·sqrt(1 - iso^(1/3)) (the same isolated surface) and
+/// s = 2, under the same protocol.
+#[test]
+fn fig10_gauss_is_fig10_with_gaussian_kernels() {
+    let load = |name: &str| Scene::load(&repo_root().join("scenes").join(name)).unwrap();
+    let (compact, gauss) = (load("fig10.ron"), load("fig10-gauss.ron"));
+    assert_eq!(gauss.iso, compact.iso);
+    assert_eq!((gauss.marching.min_step, gauss.marching.max_steps), (0.1, 1000), "BENCHMARKS.md protocol");
+    assert_eq!(gauss.groups.len(), compact.groups.len());
+    let factor = (1.0 - compact.iso.cbrt()).sqrt();
+    for (c, g) in compact.primitives().zip(gauss.primitives()) {
+        match (c, g) {
+            (
+                Primitive::Point { center: cc, kernel: Kernel::Compact { radius, .. } },
+                Primitive::Point { center: gc, kernel: Kernel::Gaussian { r, s, weight } },
+            ) => {
+                assert!((*cc - *gc).length() < 1e-9, "centre {gc} vs {cc}");
+                assert!((r - radius * factor).abs() < 1e-6, "r {r} for R {radius}");
+                assert_eq!(*s, 2.0);
+                assert!((weight - gauss.iso * s.exp()).abs() < 1e-12, "default weight iso·e^s");
+            }
+            other => panic!("unexpected pair {other:?}"),
+        }
+    }
+    assert_eq!(compact.primitive_count(), gauss.primitive_count());
+}

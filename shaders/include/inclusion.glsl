@@ -469,7 +469,9 @@ Bound gaussian_quad(float w, float alpha, float h2, float x0, inout float len) {
         if (SC_METHOD == METHOD_QUADRATIC_RELAXED_T0) {
             slope = exp_chord(w, y_min, y_end);
             b.e_hi = max((y0 - y_min) * (slope - exp_chord(w, y_min, y0)), 0.0);
-        } else if (SC_METHOD == METHOD_QUADRATIC_RELAXED_MAX) {
+        } else if (SC_METHOD == METHOD_QUADRATIC_RELAXED_MAX || w * exp(-y_min) < globals.tuning.y) {
+            // (With validity intervals, a Gaussian fainter than the floor
+            // takes this rule instead: see ValidityScope in quad.rs.)
             slope = exp_chord(w, y0, y_end);
             b.a_hi = 2.0 * alpha * abs(x0) * max(slope - exp_chord(w, y_min, y0), 0.0);
         } else {

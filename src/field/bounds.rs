@@ -27,7 +27,7 @@
 
 use glam::DVec3;
 
-use super::quad::{QuadOptions, field_quadratic};
+use super::quad::{QuadOptions, QuadSettings, ValidityScope, field_quadratic};
 use super::{Field, KernelEval, PrimEval};
 use crate::method::Method;
 
@@ -380,15 +380,19 @@ pub fn field_linear(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64) -> Boun
 
 /// The forward bound of `method` for the field minus iso on `[t0, t1]`
 /// (`t_valid` may be shorter); `None` for the methods without one (sphere,
-/// segment, revised affine arithmetic). `extension`: see [`QuadOptions`].
-pub fn field_bound(field: &Field, method: Method, extension: bool, o: DVec3, u: DVec3, t0: f64, t1: f64) -> Option<Bound> {
+/// segment, revised affine arithmetic). `quad`: see [`QuadSettings`].
+pub fn field_bound(field: &Field, method: Method, quad: QuadSettings, o: DVec3, u: DVec3, t0: f64, t1: f64) -> Option<Bound> {
     Some(match method {
         Method::LinearTaylor => field_taylor(field, o, u, t0, t1, Order::Linear),
         Method::QuadraticTaylor => field_taylor(field, o, u, t0, t1, Order::Quadratic),
         Method::Linear | Method::LinearBisection => field_linear(field, o, u, t0, t1),
         Method::Quadratic | Method::QuadraticRelaxedT0 | Method::QuadraticRelaxedMax => {
             let exp_upper = method.exp_upper().expect("a bottom-up quadratic method");
-            field_quadratic(field, o, u, t0, t1, QuadOptions { exp_upper, extension })
+            let validity_floor = match quad.validity {
+                ValidityScope::Significant => crate::scene::GAUSSIAN_BOUNDS_FRACTION * field.iso,
+                ValidityScope::Every => 0.0,
+            };
+            field_quadratic(field, o, u, t0, t1, QuadOptions { exp_upper, extension: quad.extension, validity_floor })
         }
         Method::Sphere | Method::Segment | Method::Raa => return None,
     })

@@ -8,6 +8,7 @@ use super::bounds::{field_bound, field_linear, next_root};
 use super::raa::field_raa;
 use super::reference::bisect;
 use super::Field;
+use super::quad::QuadSettings;
 use crate::method::Method;
 
 /// Marching settings shared with the GPU.
@@ -17,9 +18,7 @@ pub struct MarchSettings {
     pub max_steps: u32,
     pub growth: f64,
     pub tolerance: f64,
-    /// Per-primitive extension of compact kernels' bottom-up quadratic
-    /// bounds (Section 6.2.1).
-    pub extension: bool,
+    pub quad: QuadSettings,
 }
 
 /// What an f64 march found: the hit distance (the inside end of the
@@ -29,13 +28,16 @@ pub struct MarchResult {
     pub hit: Option<f64>,
     pub steps: u32,
     pub out_of_steps: bool,
+    /// Sum over the steps with a bound of the fraction of the requested
+    /// interval where the bound is valid (validity intervals, Section 4.2).
+    pub kept: f64,
 }
 
 /// The first crossing of `o + t u` on `[t0, t1]` found by `method`.
 pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64, s: MarchSettings) -> MarchResult {
     let at = |t: f64| field.value(o + t * u);
     let refine = |a: f64, b: f64| refine_inside(&at, a, b, s.tolerance);
-    let mut r = MarchResult { hit: None, steps: 0, out_of_steps: false };
+    let mut r = MarchResult { hit: None, steps: 0, out_of_steps: false, kept: 0.0 };
     if !(t1 >= t0) {
         return r;
     }
@@ -62,7 +64,10 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
                 (f, if lambda > 0.0 { (f.abs() / lambda).min(len) } else { len })
             }
             _ => {
-                let b = field_bound(field, method, s.extension, o, u, t, t_end).expect("an inclusion method");
+                let b = field_bound(field, method, s.quad, o, u, t, t_end).expect("an inclusion method");
+                if len > 0.0 {
+                    r.kept += (b.t_valid - t) / len;
+                }
                 // Up to where the bound is valid (Section 4.2).
                 (b.v, next_root(&b).min(b.t_valid - t))
             }
@@ -96,7 +101,7 @@ fn refine_inside(at: &impl Fn(f64) -> f64, a: f64, b: f64, tolerance: f64) -> f6
 /// recursive form).
 fn bisection(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64, s: MarchSettings) -> MarchResult {
     let at = |t: f64| field.value(o + t * u);
-    let mut r = MarchResult { hit: None, steps: 0, out_of_steps: false };
+    let mut r = MarchResult { hit: None, steps: 0, out_of_steps: false, kept: 0.0 };
     r.steps = 1;
     if at(t0) >= 0.0 {
         r.hit = Some(t0);

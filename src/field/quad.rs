@@ -39,16 +39,56 @@ pub enum ExpUpper {
     RelaxedMax,
 }
 
-/// How a bottom-up quadratic bound treats the two places where the
-/// kernels are not one smooth expression.
+/// Which Gaussians impose validity intervals (with [`ExpUpper::Validity`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ValidityScope {
+    /// Those whose peak along the ray reaches `GAUSSIAN_BOUNDS_FRACTION ·
+    /// iso`, the level that also bounds the scene. A fainter Gaussian
+    /// (which the paper clips away, Figure 14) is bounded by the relaxed
+    /// rule (c) instead: still exact at t0 and valid, but it no longer cuts
+    /// the interval at its closest approach, which each of them otherwise
+    /// does (Section 7.1: "a very small influence on the final field value
+    /// but ... unnecessary interval subdivisions").
+    #[default]
+    Significant,
+    /// Every Gaussian, as Appendix B alone reads.
+    Every,
+}
+
+impl ValidityScope {
+    pub fn name(self) -> &'static str {
+        match self {
+            ValidityScope::Significant => "significant",
+            ValidityScope::Every => "every",
+        }
+    }
+}
+
+/// The settings of the bottom-up quadratic bounds that are not the method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct QuadOptions {
-    pub exp_upper: ExpUpper,
+pub struct QuadSettings {
     /// Compact kernels: the bound of the part of the interval inside the
     /// support, extended to the whole interval by moving its control points
     /// (Section 6.2.1, Figure 9). Off: `max(Q, 0)³` built on the whole
     /// interval with the bottom-up maximum (Appendix C).
     pub extension: bool,
+    pub validity: ValidityScope,
+}
+
+impl Default for QuadSettings {
+    fn default() -> Self {
+        QuadSettings { extension: true, validity: ValidityScope::Significant }
+    }
+}
+
+/// A bottom-up quadratic bound's rule for exp and its settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QuadOptions {
+    pub exp_upper: ExpUpper,
+    pub extension: bool,
+    /// With [`ExpUpper::Validity`], Gaussians whose peak along the ray is
+    /// below this impose no validity interval (0: every Gaussian does).
+    pub validity_floor: f64,
 }
 
 impl Bound {
@@ -242,7 +282,7 @@ pub fn exp_chord(w: f64, y0: f64, y1: f64) -> f64 {
 /// y stays within the chord's ends, which needs `y(t0)` to be an end of
 /// y's range: see [`ExpUpper`] for the case where it is not. May shorten
 /// `len`.
-fn gaussian_quad(w: f64, alpha: f64, h2: f64, x0: f64, len: &mut f64, rule: ExpUpper) -> Bound {
+fn gaussian_quad(w: f64, alpha: f64, h2: f64, x0: f64, len: &mut f64, rule: ExpUpper, validity_floor: f64) -> Bound {
     let y = |x: f64| alpha * (x * x + h2);
     let (y0, y1, c) = (y(x0), 2.0 * alpha * x0, alpha);
     let v = w * (-y0).exp();
@@ -256,7 +296,8 @@ fn gaussian_quad(w: f64, alpha: f64, h2: f64, x0: f64, len: &mut f64, rule: ExpU
         exp_chord(w, y0, other)
     } else {
         let y_min = alpha * h2;
-        match rule {
+        let faint = w * (-y_min).exp() < validity_floor;
+        match if rule == ExpUpper::Validity && faint { ExpUpper::RelaxedMax } else { rule } {
             ExpUpper::Validity => {
                 // Up to the point symmetric to t0 about the closest
                 // approach, y(t0) is the largest value.
@@ -297,7 +338,7 @@ impl PrimEval {
                 let h2 = (co - tc * u).length_squared();
                 let x0 = t0 - tc;
                 if kernel.gaussian {
-                    gaussian_quad(kernel.weight, kernel.inv, h2, x0, len, opts.exp_upper)
+                    gaussian_quad(kernel.weight, kernel.inv, h2, x0, len, opts.exp_upper, opts.validity_floor)
                 } else {
                     compact_quad(kernel.weight, kernel.inv, 1.0 - h2 * kernel.inv, x0, *len, opts.extension)
                 }
@@ -400,7 +441,7 @@ mod tests {
             let (w, alpha) = (rng.random_range(0.1..3.0), rng.random_range(0.1..4.0));
             for rule in rules {
                 let mut len = len0;
-                let b = gaussian_quad(w, alpha, h2, x0, &mut len, rule);
+                let b = gaussian_quad(w, alpha, h2, x0, &mut len, rule, 0.0);
                 let k = |tau: f64| w * (-alpha * ((x0 + tau) * (x0 + tau) + h2)).exp();
                 assert!((b.v - k(0.0)).abs() < 1e-14 && b.e_hi >= 0.0);
                 assert!(rule == ExpUpper::RelaxedT0 || b.e_hi == 0.0, "{rule:?} must be exact at t0");
@@ -426,5 +467,22 @@ mod tests {
             }
         }
         assert!(kept / f64::from(n) > 0.5, "validity intervals kept {}", kept / f64::from(n));
+    }
+
+    #[test]
+    fn faint_gaussians_keep_the_interval_and_stay_valid() {
+        // The ray passes the centre at x = 0, 2 units away: the peak on the
+        // ray is w e^{-α h²} = 2 e^{-4}.
+        let (w, alpha, h2, x0) = (2.0f64, 1.0f64, 4.0f64, -1.0f64);
+        let peak = w * (-alpha * h2).exp();
+        let k = |tau: f64| w * (-alpha * ((x0 + tau) * (x0 + tau) + h2)).exp();
+        let mut len = 5.0;
+        let cut = gaussian_quad(w, alpha, h2, x0, &mut len, ExpUpper::Validity, 0.5 * peak);
+        assert_eq!(len, 2.0, "a significant Gaussian cuts the interval at the point symmetric to t0");
+        assert!(contains(&cut, len, k) < 1e-12);
+        let mut len = 5.0;
+        let faint = gaussian_quad(w, alpha, h2, x0, &mut len, ExpUpper::Validity, 2.0 * peak);
+        assert_eq!(len, 5.0, "a faint Gaussian keeps the whole interval");
+        assert!(faint.e_hi == 0.0 && contains(&faint, len, k) < 1e-12);
     }
 }

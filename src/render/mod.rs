@@ -12,6 +12,7 @@ use anyhow::{Result, bail};
 use ash::vk;
 
 use crate::field::Field;
+use crate::field::quad::{QuadSettings, ValidityScope};
 use crate::gpu::{Buffer, ComputePipeline, Context, Submitter};
 use crate::layout::{self, GpuBound, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuResult, GpuRay};
 use crate::method::Method;
@@ -117,9 +118,9 @@ pub struct Renderer {
     /// Skip, per ray, the primitives whose support the ray no longer meets
     /// (scenes of at most 64 primitives). Results are identical either way.
     pub cull: bool,
-    /// Per-primitive extension of compact kernels' bottom-up quadratic
-    /// bounds (Section 6.2.1); from the scene's `marching.extension`.
-    pub extension: bool,
+    /// Settings of the bottom-up quadratic bounds; from the scene's
+    /// `marching`.
+    pub quad: QuadSettings,
 }
 
 /// The primitives in GPU layout, sorted by group.
@@ -152,7 +153,11 @@ pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
     out
 }
 
-fn globals(scene: &Scene, growth: f64) -> GpuGlobals {
+fn globals(scene: &Scene, growth: f64, quad: QuadSettings) -> GpuGlobals {
+    let validity_floor = match quad.validity {
+        ValidityScope::Significant => scene::GAUSSIAN_BOUNDS_FRACTION * scene.iso,
+        ValidityScope::Every => 0.0,
+    };
     let rgb = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
     GpuGlobals {
         march: [
@@ -167,7 +172,7 @@ fn globals(scene: &Scene, growth: f64) -> GpuGlobals {
             scene.lights.len() as u32,
             scene.marching.max_steps,
         ],
-        tuning: [growth as f32, 0.0, 0.0, 0.0],
+        tuning: [growth as f32, validity_floor as f32, 0.0, 0.0],
         background: rgb(scene.background),
         surface: rgb(scene.surface),
         ambient: rgb(scene.ambient),
@@ -222,7 +227,7 @@ impl Renderer {
             })
             .collect();
         Ok(Renderer {
-            globals: Buffer::with_data(ctx, "globals", &[globals(scene, 2.0)])?,
+            globals: Buffer::with_data(ctx, "globals", &[globals(scene, 2.0, scene.marching.quad)])?,
             prims: Buffer::with_data(ctx, "primitives", &prims)?,
             lights: Buffer::with_data(ctx, "lights", &lights)?,
             rays: Buffer::new(ctx, "rays", (TILE_RAYS * size_of::<GpuRay>()) as u64)?,
@@ -238,7 +243,7 @@ impl Renderer {
             shade: true,
             growth: None,
             cull: true,
-            extension: scene.marching.extension,
+            quad: scene.marching.quad,
         })
     }
 
@@ -247,9 +252,9 @@ impl Renderer {
     }
 
     fn pipeline(&mut self, entry: EntryPoint, method: Method) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
-        let key = PipelineKey { entry, method, shade: self.shade, cull: self.cull, extension: self.extension };
+        let key = PipelineKey { entry, method, shade: self.shade, cull: self.cull, extension: self.quad.extension };
         if !self.pipelines.contains_key(&key) {
-            let spec = specialization(&self.scene, method, self.shade, self.cull, self.extension);
+            let spec = specialization(&self.scene, method, self.shade, self.cull, self.quad.extension);
             let spirv = match entry {
                 EntryPoint::March => MARCH_SPV,
                 EntryPoint::BoundsProbe => BOUNDS_SPV,
@@ -290,6 +295,8 @@ impl Renderer {
         }
         let deadline = Instant::now() + self.timeout;
         let handles = self.pipeline(EntryPoint::BoundsProbe, method)?;
+        let growth = self.growth.or(self.scene.marching.growth).unwrap_or_else(|| method.default_growth());
+        self.globals.write(0, &[globals(&self.scene, growth, self.quad)])?;
         let mut out = Vec::with_capacity(queries.len());
         for tile in queries.chunks(TILE_RAYS) {
             self.rays.write(0, tile)?;
@@ -306,7 +313,7 @@ impl Renderer {
         let deadline = Instant::now() + self.timeout;
         let handles = self.pipeline(EntryPoint::March, method)?;
         let growth = self.growth.or(self.scene.marching.growth).unwrap_or_else(|| method.default_growth());
-        self.globals.write(0, &[globals(&self.scene, growth)])?;
+        self.globals.write(0, &[globals(&self.scene, growth, self.quad)])?;
         let mut results = Vec::with_capacity(rays.len());
         let mut gpu_ns = Some(0.0);
         // Every slice but a ray's last takes `slice_steps` steps.

@@ -78,11 +78,15 @@ pub struct MarchingFile {
     /// bounds (Section 6.2.1); off builds `max(Q, 0)³` instead.
     #[serde(default = "default_extension")]
     pub extension: bool,
+    /// Which Gaussians impose validity intervals on `quadratic`:
+    /// "significant" (peak along the ray at least 1e-3·iso) or "every".
+    #[serde(default = "default_validity")]
+    pub validity: String,
 }
 
 impl Default for MarchingFile {
     fn default() -> Self {
-        MarchingFile { method: default_method(), min_step: default_min_step(), max_steps: default_max_steps(), growth: None, extension: default_extension() }
+        MarchingFile { method: default_method(), min_step: default_min_step(), max_steps: default_max_steps(), growth: None, extension: default_extension(), validity: default_validity() }
     }
 }
 
@@ -167,6 +171,10 @@ fn default_min_step() -> f64 {
 
 fn default_extension() -> bool {
     true
+}
+
+fn default_validity() -> String {
+    "significant".into()
 }
 
 fn default_max_steps() -> u32 {

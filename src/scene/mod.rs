@@ -9,6 +9,7 @@ use glam::DVec3;
 
 pub use file::SceneFile;
 
+use crate::field::quad::{QuadSettings, ValidityScope};
 use crate::method::Method;
 
 /// Fraction of the iso value below which a Gaussian kernel counts as zero
@@ -49,9 +50,8 @@ pub struct Marching {
     pub max_steps: u32,
     /// Interval growth k; `None`: the method's default.
     pub growth: Option<f64>,
-    /// Per-primitive extension of compact kernels' bottom-up quadratic
-    /// bounds (Section 6.2.1).
-    pub extension: bool,
+    /// Settings of the bottom-up quadratic bounds.
+    pub quad: QuadSettings,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -262,6 +262,11 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         }
         k => k,
     };
+    let validity = match f.marching.validity.as_str() {
+        "significant" => ValidityScope::Significant,
+        "every" => ValidityScope::Every,
+        other => return Err(c.err("marching.validity", format!("expected \"significant\" or \"every\", got {other:?}"))),
+    };
     let mut lights = Vec::new();
     for (i, l) in f.lights.iter().enumerate() {
         let direction = c.unit(&format!("lights[{i}].direction"), l.direction)?;
@@ -355,7 +360,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         surface: c.color("surface", f.surface)?,
         lights,
         iso,
-        marching: Marching { method, min_step, max_steps: f.marching.max_steps, growth, extension: f.marching.extension },
+        marching: Marching { method, min_step, max_steps: f.marching.max_steps, growth, quad: QuadSettings { extension: f.marching.extension, validity } },
         groups,
         bounds,
     })
