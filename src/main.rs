@@ -42,8 +42,8 @@ struct GpuArgs {
 #[derive(Args)]
 struct MarchArgs {
     /// Marcher: sphere, segment, linear-taylor, quadratic-taylor, linear,
-    /// linear-bisection or raa
-    /// (default: the scene's marching.method).
+    /// linear-bisection, raa, quadratic, quadratic-relaxed-t0 or
+    /// quadratic-relaxed-max (default: the scene's marching.method).
     #[arg(long)]
     method: Option<String>,
     /// Override the scene's minimum step (scene units).

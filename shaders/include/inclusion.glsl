@@ -347,81 +347,89 @@ Bound quad_scale(Bound f, float w) {
     return Bound(w * f.v, w * f.a_lo, w * f.b_lo, w * f.a_hi, w * f.b_hi, w * f.e_hi);
 }
 
-// Product of forward bounds on [0, len] (Figure 8): the derivative of each
-// of the four quartics, split at its inflection, is bounded per piece by
-// its tangent at the piece's start and its chord; a line U0 + s τ above
-// the upper lines (below the lower ones), integrated. U0 is the largest
-// P'(0); the line stays above each first-piece line to the piece's end and
-// above each second-piece line at len (see quad::mul for why that holds).
-Bound quad_mul(Bound f, Bound g, float len) {
-    float u0 = max(max(f.v * g.a_lo + g.v * f.a_lo, f.v * g.a_hi + g.v * f.a_lo),
-                   max(f.v * g.a_lo + g.v * f.a_hi, f.v * g.a_hi + g.v * f.a_hi));
-    float d0 = min(min(f.v * g.a_lo + g.v * f.a_lo, f.v * g.a_hi + g.v * f.a_lo),
-                   min(f.v * g.a_lo + g.v * f.a_hi, f.v * g.a_hi + g.v * f.a_hi));
-    float up_slope = -3.0e38, down_slope = 3.0e38;
-    for (int i = 0; i < 2; ++i) {
-        float af = i == 0 ? f.a_lo : f.a_hi;
-        float bf = i == 0 ? f.b_lo : f.b_hi;
-        for (int j = 0; j < 2; ++j) {
-            float ag = j == 0 ? g.a_lo : g.a_hi;
-            float bg = j == 0 ? g.b_lo : g.b_hi;
-            float e0 = f.v * ag + g.v * af;
-            float e1 = 2.0 * (af * ag + bf * g.v + bg * f.v);
-            float e2 = 3.0 * (af * bg + ag * bf);
-            float e3 = 4.0 * bf * bg;
-            float inflection = e3 != 0.0 ? -e2 / (3.0 * e3) : -1.0;
-            float split = inflection > 0.0 && inflection < len ? inflection : len;
-            // First piece [0, split]: tangent at 0 (slope e1) and chord.
-            float chord = e1 + split * (e2 + split * e3);
-            bool convex = e2 + 1.5 * e3 * split >= 0.0;
-            float up = convex ? chord : e1;
-            float down = convex ? e1 : chord;
-            float inv = split > 0.0 ? 1.0 / split : 0.0;
-            up_slope = max(up_slope, up + (e0 - u0) * inv);
-            down_slope = min(down_slope, down + (e0 - d0) * inv);
-            if (split < len) {
-                // Second piece [split, len]: tangent at split and chord.
-                float p = e0 + split * (e1 + split * (e2 + split * e3));
-                float tangent = e1 + split * (2.0 * e2 + 3.0 * split * e3);
-                chord = e1 + e2 * (split + len) + e3 * (split * split + split * len + len * len);
-                convex = e2 + 1.5 * e3 * (split + len) >= 0.0;
-                up = convex ? chord : tangent;
-                down = convex ? tangent : chord;
-                up_slope = max(up_slope, (p + up * (len - split) - u0) / len);
-                down_slope = min(down_slope, (p + down * (len - split) - d0) / len);
-            }
-        }
-    }
-    return Bound(f.v * g.v, d0, 0.5 * down_slope, u0, 0.5 * up_slope, 0.0);
+// One product of the Figure 8 construction: the quartic (fv + af τ + bf τ²)
+// (gv + ag τ + bg τ²), whose derivative P' is a cubic. Split at its
+// inflection, each piece is bounded by its tangent at the piece's start and
+// its chord; the slopes of the joining lines U0 + s τ and D0 + s τ that stay
+// above (below) them are folded into up_slope (down_slope).
+void mul_term(float fv, float af, float bf, float gv, float ag, float bg, float len, float inv_len, float u0, float d0,
+              bool SINGLE, inout float up_slope, inout float down_slope) {
+    float e0 = fv * ag + gv * af;
+    float e1 = 2.0 * (af * ag + bf * gv + bg * fv);
+    float e2 = 3.0 * (af * bg + ag * bf);
+    float e3 = 4.0 * bf * bg;
+    float inflection = e3 != 0.0 ? -e2 / (3.0 * e3) : -1.0;
+    float split = inflection > 0.0 && inflection < len ? inflection : len;
+    // First piece [0, split]: tangent at 0 (slope e1) and chord.
+    float chord = e1 + split * (e2 + split * e3);
+    bool convex = e2 + 1.5 * e3 * split >= 0.0;
+    // (With a single product, e0 is U0 and D0.)
+    float inv = SINGLE || split <= 0.0 ? 0.0 : 1.0 / split;
+    up_slope = max(up_slope, (convex ? chord : e1) + (e0 - u0) * inv);
+    down_slope = min(down_slope, (convex ? e1 : chord) + (e0 - d0) * inv);
+    // Second piece [split, len]: tangent at split and chord. Without a
+    // split it is the point len, whose constraint the first piece already
+    // meets: computed anyway, without a branch.
+    float p = e0 + split * (e1 + split * (e2 + split * e3));
+    float tangent = e1 + split * (2.0 * e2 + 3.0 * split * e3);
+    chord = e1 + e2 * (split + len) + e3 * (split * split + split * len + len * len);
+    convex = e2 + 1.5 * e3 * (split + len) >= 0.0;
+    up_slope = max(up_slope, (p + (convex ? chord : tangent) * (len - split) - u0) * inv_len);
+    down_slope = min(down_slope, (p + (convex ? tangent : chord) * (len - split) - d0) * inv_len);
+}
+
+// Product of forward bounds on [0, len] (Figure 8): the four products of a
+// side of f and a side of g, joined as in quad::mul (which explains why
+// that is valid). U0 (D0) is the largest (least) P'(0). F_EXACT / G_EXACT:
+// that input's two sides are one quadratic, so fewer products are
+// distinct (the f64 mirror computes the duplicates too). No loops: lavapipe
+// runs straight-line code markedly faster.
+Bound quad_mul(Bound f, Bound g, float len, bool F_EXACT, bool G_EXACT) {
+    // P'(0) of the products: f.v g' + g.v f' over the sides.
+    float p00 = f.v * g.a_lo + g.v * f.a_lo;
+    float p01 = G_EXACT ? p00 : f.v * g.a_hi + g.v * f.a_lo;
+    float p10 = F_EXACT ? p00 : f.v * g.a_lo + g.v * f.a_hi;
+    float p11 = F_EXACT ? p01 : G_EXACT ? p10 : f.v * g.a_hi + g.v * f.a_hi;
+    float u0 = max(max(p00, p01), max(p10, p11));
+    float d0 = min(min(p00, p01), min(p10, p11));
+    float up = -3.0e38, down = 3.0e38;
+    float inv_len = len > 0.0 ? 1.0 / len : 0.0;
+    bool single = F_EXACT && G_EXACT;
+    mul_term(f.v, f.a_lo, f.b_lo, g.v, g.a_lo, g.b_lo, len, inv_len, u0, d0, single, up, down);
+    if (!G_EXACT) mul_term(f.v, f.a_lo, f.b_lo, g.v, g.a_hi, g.b_hi, len, inv_len, u0, d0, false, up, down);
+    if (!F_EXACT) mul_term(f.v, f.a_hi, f.b_hi, g.v, g.a_lo, g.b_lo, len, inv_len, u0, d0, false, up, down);
+    if (!F_EXACT && !G_EXACT) mul_term(f.v, f.a_hi, f.b_hi, g.v, g.a_hi, g.b_hi, len, inv_len, u0, d0, false, up, down);
+    return Bound(f.v * g.v, d0, 0.5 * down, u0, 0.5 * up, 0.0);
 }
 
 // Compact kernel w (a - x²/R²)³ on [x0, x0 + len] (Figure 11). With
 // SC_EXTENSION: the bound of the part inside the support, extended to the
 // whole interval (Section 6.2.1, Figure 9); without: max(Q, 0)³ on the
 // whole interval.
-Bound compact_quad(float w, float inv_r2, float a, float x0, float len) {
+Bound compact_quad(float w, float inv_r2, float radius, float a, float x0, float len) {
     Bound zero = quad_exact(0.0, 0.0, 0.0);
     if (a <= 0.0) return zero;
-    float l = sqrt(a / inv_r2);
+    float l = sqrt(a) * radius;
     float xa = max(x0, -l);
     float xb = min(x0 + len, l);
     if (xa >= xb) return zero;      // the support misses the interval: only this test
     g_evals += 1u;
     if (SC_EXTENSION == 0u) {
         Bound m = max_bound(quad_exact(a - x0 * x0 * inv_r2, -2.0 * x0 * inv_r2, -inv_r2), zero, len, true);
-        return quad_scale(quad_mul(quad_mul(m, m, len), m, len), w);
+        return quad_scale(quad_mul(quad_mul(m, m, len, false, false), m, len, false, false), w);
     }
     float sub = xb - xa;
     bool entering = xa > x0;
     Bound q = quad_exact(entering ? 0.0 : a - xa * xa * inv_r2, -2.0 * xa * inv_r2, -inv_r2);
-    Bound k = quad_scale(quad_mul(quad_mul(q, q, sub), q, sub), w);
+    Bound k = quad_scale(quad_mul(quad_mul(q, q, sub, true, true), q, sub, false, true), w);
     if (entering) {
+        // d1 = (c1 - λ c2)/(1 - λ) with λ = (xa - x0)/span, 1 - λ = sub/span.
         float span = xb - x0;
-        float lambda = (xa - x0) / span;
+        float inv_span = 1.0 / span;
         float c1 = k.v + 0.5 * k.a_hi * sub;
         float c2 = max(bound_hi(k, sub), 0.0);
-        float d1 = max((c1 - lambda * c2) / (1.0 - lambda), 0.0);
-        k = Bound(0.0, 0.0, 0.0, 2.0 * d1 / span, (c2 - 2.0 * d1) / (span * span), 0.0);
+        float d1 = max((c1 * span - (xa - x0) * c2) / sub, 0.0);
+        k = Bound(0.0, 0.0, 0.0, 2.0 * d1 * inv_span, (c2 - 2.0 * d1) * inv_span * inv_span, 0.0);
     }
     if (xb < x0 + len) {
         float tau1 = xb - x0;
@@ -495,7 +503,7 @@ Bound prim_quad(GpuPrimitive pr, vec3 o, vec3 u, float t0, inout float len) {
             float q = s0 * s0;
             return quad_exact(q < pr.b.x * pr.b.x ? kernel_value(kind, pr.b, q, dummy) : 0.0, 0.0, 0.0);
         }
-        return compact_quad(pr.b.z, pr.b.y * sigma * sigma, 1.0, s0 / sigma, len);
+        return compact_quad(pr.b.z, pr.b.y * sigma * sigma, pr.b.x / abs(sigma), 1.0, s0 / sigma, len);
     }
     vec3 co = pr.a.xyz - o;
     float tc = dot(co, u);
@@ -503,7 +511,7 @@ Bound prim_quad(GpuPrimitive pr, vec3 o, vec3 u, float t0, inout float len) {
     float h2 = dot(wv, wv);
     float x0 = t0 - tc;
     if (kind == PRIM_GAUSSIAN_POINT) return gaussian_quad(pr.b.z, pr.b.y, h2, x0, len);
-    return compact_quad(pr.b.z, pr.b.y, 1.0 - h2 * pr.b.y, x0, len);
+    return compact_quad(pr.b.z, pr.b.y, pr.b.x, 1.0 - h2 * pr.b.y, x0, len);
 }
 
 bool bottom_up_quadratic() {
@@ -561,7 +569,11 @@ Bound method_bound(vec3 o, vec3 u, float t0, inout float t1) {
             group = pr.ids.y;
         }
         if (bottom_up_quadratic()) {
-            sq = quad_add(sq, prim_quad(pr, o, u, t0, len));
+            // Only Gaussians shorten the interval: a copy keeps len
+            // loop-invariant for scenes without them.
+            float valid = len;
+            sq = quad_add(sq, prim_quad(pr, o, u, t0, valid));
+            if (SC_HAS_GAUSSIAN_POINT != 0u) len = valid;
         } else {
             Taylor k = prim_terms(pr, o, u, t0, t1);
             s.value += k.value;
@@ -588,10 +600,9 @@ float first_root(float g, float A, float B) {
     return (sD - A) / (2.0 * B);
 }
 
-// Algorithm 1's next root: of the upper bound outside, of the lower inside.
-// A relaxed upper bound that starts at or above 0 allows no step.
-float next_root(Bound b) {
-    if (b.v >= 0.0) return first_root(b.v, -b.a_lo, -b.b_lo);
+// Algorithm 1's next root from outside (f < 0): of the upper bound. A
+// relaxed upper bound that starts at or above 0 allows no step.
+float upper_root(Bound b) {
     float start = b.v + b.e_hi;
     return start >= 0.0 ? 0.0 : first_root(-start, b.a_hi, b.b_hi);
 }

@@ -65,7 +65,10 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
     } else {
         Bound b = method_bound(o, u, m.t, t_end);   // may shorten t_end
         f = b.v;
-        step = min(next_root(b), t_end - m.t);
+        // A step is taken only from outside (f < 0; f >= 0 is a hit
+        // below), so only the upper bound's root is needed, and the
+        // compiler drops the lower bounds' arithmetic altogether.
+        step = min(upper_root(b), t_end - m.t);
     }
     if (f >= 0.0) {
         if (m.steps > 1u) {

@@ -181,12 +181,13 @@ pub fn mul(f: &Bound, g: &Bound, len: f64) -> Bound {
                 up_slope = up_slope.max(up);
                 down_slope = down_slope.min(down);
             }
-            if split < len {
-                let p = e0 + split * (e1 + split * (e2 + split * e3));
-                let (up, down) = lines(split, len);
-                up_slope = up_slope.max((p + up * (len - split) - u0) / len);
-                down_slope = down_slope.min((p + down * (len - split) - d0) / len);
-            }
+            // Without a split the second piece is the point len, whose
+            // constraint the first piece meets; the GPU computes it anyway.
+            let p = e0 + split * (e1 + split * (e2 + split * e3));
+            let (up, down) = lines(split, len);
+            let inv_len = if len > 0.0 { 1.0 / len } else { 0.0 };
+            up_slope = up_slope.max((p + up * (len - split) - u0) * inv_len);
+            down_slope = down_slope.min((p + down * (len - split) - d0) * inv_len);
         }
     }
     Bound {
