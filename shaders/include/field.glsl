@@ -89,6 +89,29 @@ float field(vec3 p) {
     return field_eval(p, false, unused);
 }
 
+// A point primitive along o + t u: (h², x0), h² the squared distance of its
+// centre from the line, x0 = t0 - tc with tc the closest approach. Written
+// without the cancellation of |c - o|² - tc².
+vec2 point_on_ray(GpuPrimitive pr, vec3 o, vec3 u, float t0) {
+    vec3 co = pr.a.xyz - o;
+    float tc = dot(co, u);
+    vec3 w = co - tc * u;
+    return vec2(dot(w, w), t0 - tc);
+}
+
+// A plane primitive's signed distance along o + t u: (s(t0), ds/dt).
+vec2 plane_on_ray(GpuPrimitive pr, vec3 o, vec3 u, float t0) {
+    return vec2(dot(pr.a.xyz, o + t0 * u) - pr.a.w, dot(pr.a.xyz, u));
+}
+
+// The kernel of a plane slab at signed distance s: constant along a ray
+// parallel to the plane.
+float slab_value(GpuPrimitive pr, float s) {
+    float dummy;
+    float q = s * s;
+    return q < pr.b.x * pr.b.x ? kernel_value(pr.ids.x, pr.b, q, dummy) : 0.0;
+}
+
 // |dk/dd| at distance d.
 float kernel_slope(uint kind, vec4 b, float d) {
     float dk_dq;

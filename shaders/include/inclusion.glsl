@@ -100,9 +100,10 @@ Taylor prim_taylor(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1, bool QUA
     if (kind == PRIM_COMPACT_PLANE) {
         // Signed distance s = s0 + σ t: the kernel of s with h = 0,
         // derivatives in t scaled by σ and σ².
-        float sigma = dot(pr.a.xyz, u);
-        float s0 = dot(pr.a.xyz, o + t0 * u) - pr.a.w;
-        float s1 = dot(pr.a.xyz, o + t1 * u) - pr.a.w;
+        vec2 s = plane_on_ray(pr, o, u, t0);
+        float s0 = s.x;
+        float sigma = s.y;
+        float s1 = plane_on_ray(pr, o, u, t1).x;
         Taylor k = compact_taylor(pr.b.z, pr.b.y, pr.b.x, 0.0, min(s0, s1), max(s0, s1), QUADRATIC);
         vec3 d0 = compact_derivs(pr.b.z, pr.b.y, 1.0, s0);
         float scale = QUADRATIC ? sigma * sigma : sigma;
@@ -110,12 +111,9 @@ Taylor prim_taylor(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1, bool QUA
         float hi = k.hi * scale;
         return Taylor(d0.x, d0.y * sigma, min(lo, hi), max(lo, hi));
     }
-    vec3 co = pr.a.xyz - o;
-    float tc = dot(co, u);
-    vec3 wv = co - tc * u;
-    float h2 = dot(wv, wv);
-    if (kind == PRIM_GAUSSIAN_POINT) return gaussian_taylor(pr.b.z, pr.b.y, h2, t0 - tc, t1 - tc, QUADRATIC);
-    return compact_taylor(pr.b.z, pr.b.y, pr.b.x, h2, t0 - tc, t1 - tc, QUADRATIC);
+    vec2 g = point_on_ray(pr, o, u, t0);
+    if (kind == PRIM_GAUSSIAN_POINT) return gaussian_taylor(pr.b.z, pr.b.y, g.x, g.y, g.y + (t1 - t0), QUADRATIC);
+    return compact_taylor(pr.b.z, pr.b.y, pr.b.x, g.x, g.y, g.y + (t1 - t0), QUADRATIC);
 }
 
 // Max of two forward bounds on [0, len] (Section 5.2, Appendix C): lower is
@@ -209,20 +207,13 @@ Lin prim_linear(GpuPrimitive pr, vec3 o, vec3 u, float t0, float len) {
     uint kind = pr.ids.x;
     if (!kind_enabled(kind)) return Lin(0.0, 0.0, 0.0);
     if (kind == PRIM_COMPACT_PLANE) {
-        float sigma = dot(pr.a.xyz, u);
-        float s0 = dot(pr.a.xyz, o + t0 * u) - pr.a.w;
-        if (abs(sigma) < 1e-9) {
-            float dummy;
-            float q = s0 * s0;
-            return Lin(q < pr.b.x * pr.b.x ? kernel_value(kind, pr.b, q, dummy) : 0.0, 0.0, 0.0);
-        }
-        return compact_lin(pr.b.z, pr.b.y * sigma * sigma, 1.0, s0 / sigma, len);
+        vec2 s = plane_on_ray(pr, o, u, t0);
+        if (abs(s.y) < 1e-9) return Lin(slab_value(pr, s.x), 0.0, 0.0);
+        return compact_lin(pr.b.z, pr.b.y * s.y * s.y, 1.0, s.x / s.y, len);
     }
-    vec3 co = pr.a.xyz - o;
-    float tc = dot(co, u);
-    vec3 wv = co - tc * u;
-    float h2 = dot(wv, wv);
-    float x0 = t0 - tc;
+    vec2 g = point_on_ray(pr, o, u, t0);
+    float h2 = g.x;
+    float x0 = g.y;
     if (kind == PRIM_GAUSSIAN_POINT) {
         g_evals += 1u;
         float alpha = pr.b.y;
@@ -288,23 +279,18 @@ vec3 prim_raa(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
     uint kind = pr.ids.x;
     if (!kind_enabled(kind)) return vec3(0.0);
     if (kind == PRIM_COMPACT_PLANE) {
-        float sigma = dot(pr.a.xyz, u);
-        float sa = dot(pr.a.xyz, o + ta * u) - pr.a.w;
-        if (abs(sigma) < 1e-9) {
-            float dummy;
-            float q = sa * sa;
-            return vec3(q < pr.b.x * pr.b.x ? kernel_value(kind, pr.b, q, dummy) : 0.0, 0.0, 0.0);
-        }
-        float sb = dot(pr.a.xyz, o + tb * u) - pr.a.w;
+        vec2 s = plane_on_ray(pr, o, u, ta);
+        float sa = s.x;
+        float sigma = s.y;
+        if (abs(sigma) < 1e-9) return vec3(slab_value(pr, sa), 0.0, 0.0);
+        float sb = plane_on_ray(pr, o, u, tb).x;
         vec3 r = compact_raa(pr.b.z, pr.b.y * sigma * sigma, 0.0, min(sa / sigma, sb / sigma), max(sa / sigma, sb / sigma));
         return sigma < 0.0 ? vec3(r.x, -r.y, r.z) : r;
     }
-    vec3 co = pr.a.xyz - o;
-    float tc = dot(co, u);
-    vec3 wv = co - tc * u;
-    float h2 = dot(wv, wv);
-    float xa = ta - tc;
-    float xb = tb - tc;
+    vec2 g = point_on_ray(pr, o, u, ta);
+    float h2 = g.x;
+    float xa = g.y;
+    float xb = xa + (tb - ta);
     if (kind == PRIM_GAUSSIAN_POINT) {
         g_evals += 1u;
         vec3 x = vec3(0.5 * (xa + xb), 0.5 * (xb - xa), 0.0);
@@ -496,22 +482,13 @@ Bound prim_quad(GpuPrimitive pr, vec3 o, vec3 u, float t0, inout float len) {
     uint kind = pr.ids.x;
     if (!kind_enabled(kind)) return quad_exact(0.0, 0.0, 0.0);
     if (kind == PRIM_COMPACT_PLANE) {
-        float sigma = dot(pr.a.xyz, u);
-        float s0 = dot(pr.a.xyz, o + t0 * u) - pr.a.w;
-        if (abs(sigma) < 1e-9) {
-            float dummy;
-            float q = s0 * s0;
-            return quad_exact(q < pr.b.x * pr.b.x ? kernel_value(kind, pr.b, q, dummy) : 0.0, 0.0, 0.0);
-        }
-        return compact_quad(pr.b.z, pr.b.y * sigma * sigma, pr.b.x / abs(sigma), 1.0, s0 / sigma, len);
+        vec2 s = plane_on_ray(pr, o, u, t0);
+        if (abs(s.y) < 1e-9) return quad_exact(slab_value(pr, s.x), 0.0, 0.0);
+        return compact_quad(pr.b.z, pr.b.y * s.y * s.y, pr.b.x / abs(s.y), 1.0, s.x / s.y, len);
     }
-    vec3 co = pr.a.xyz - o;
-    float tc = dot(co, u);
-    vec3 wv = co - tc * u;
-    float h2 = dot(wv, wv);
-    float x0 = t0 - tc;
-    if (kind == PRIM_GAUSSIAN_POINT) return gaussian_quad(pr.b.z, pr.b.y, h2, x0, len);
-    return compact_quad(pr.b.z, pr.b.y, pr.b.x, 1.0 - h2 * pr.b.y, x0, len);
+    vec2 g = point_on_ray(pr, o, u, t0);
+    if (kind == PRIM_GAUSSIAN_POINT) return gaussian_quad(pr.b.z, pr.b.y, g.x, g.y, len);
+    return compact_quad(pr.b.z, pr.b.y, pr.b.x, 1.0 - g.x * pr.b.y, g.y, len);
 }
 
 bool bottom_up_quadratic() {

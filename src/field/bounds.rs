@@ -28,7 +28,7 @@
 use glam::DVec3;
 
 use super::quad::{QuadOptions, QuadSettings, ValidityScope, field_quadratic};
-use super::{Field, KernelEval, PrimEval};
+use super::{Field, KernelEval, PrimEval, point_on_ray};
 use crate::method::Method;
 
 /// A forward bound on `[t0, t_valid]`; see the module documentation.
@@ -135,10 +135,8 @@ impl PrimEval {
     pub fn taylor(&self, o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order) -> Taylor {
         match *self {
             PrimEval::Point { center, kernel } => {
-                let co = center - o;
-                let tc = co.dot(u);
-                let h2 = (co - tc * u).length_squared();
-                kernel_taylor(&kernel, h2, t0 - tc, t1 - tc, order)
+                let (h2, x0) = point_on_ray(center, o, u, t0);
+                kernel_taylor(&kernel, h2, x0, x0 + (t1 - t0), order)
             }
             PrimEval::Plane { normal, offset, kernel } => {
                 // Signed distance s = s0 + σ t: the kernel of s with h = 0,
@@ -334,10 +332,7 @@ impl PrimEval {
     pub fn linear(&self, o: DVec3, u: DVec3, t0: f64, len: f64) -> Lin {
         match *self {
             PrimEval::Point { center, kernel } => {
-                let co = center - o;
-                let tc = co.dot(u);
-                let h2 = (co - tc * u).length_squared();
-                let x0 = t0 - tc;
+                let (h2, x0) = point_on_ray(center, o, u, t0);
                 if kernel.gaussian {
                     // y = α(x² + h²) is convex: tangent below, chord above.
                     let y = Lin { v: kernel.inv * (x0 * x0 + h2), lo: 2.0 * kernel.inv * x0, hi: kernel.inv * (2.0 * x0 + len) };

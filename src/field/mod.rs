@@ -15,6 +15,15 @@ use crate::scene::{Kernel, Primitive, Scene};
 /// `96/(25√5) · w/R` (PAPER-NOTES.md).
 pub const COMPACT_PEAK_SLOPE: f64 = 96.0 / (25.0 * 2.236_067_977_499_79);
 
+/// A point along the ray `o + t u` (`|u| = 1`): `(h², x0)`, `h²` the squared
+/// distance of `center` from the line and `x0 = t0 - tc` with `tc` the
+/// closest approach; written without the cancellation of `|c - o|² - tc²`.
+pub fn point_on_ray(center: DVec3, o: DVec3, u: DVec3, t0: f64) -> (f64, f64) {
+    let co = center - o;
+    let tc = co.dot(u);
+    ((co - tc * u).length_squared(), t0 - tc)
+}
+
 /// One kernel, precomputed for evaluation.
 #[derive(Clone, Copy, Debug)]
 pub struct KernelEval {

@@ -19,7 +19,7 @@
 use glam::DVec3;
 
 use super::bounds::{Bound, max_bound};
-use super::{Field, PrimEval};
+use super::{Field, PrimEval, point_on_ray};
 
 /// The upper bound of the Gaussian's `e^{-y}` where the query interval
 /// holds the ray's closest approach to the centre (so `y = α q` first falls
@@ -334,10 +334,7 @@ impl PrimEval {
     pub fn quadratic(&self, o: DVec3, u: DVec3, t0: f64, len: &mut f64, opts: QuadOptions) -> Bound {
         match *self {
             PrimEval::Point { center, kernel } => {
-                let co = center - o;
-                let tc = co.dot(u);
-                let h2 = (co - tc * u).length_squared();
-                let x0 = t0 - tc;
+                let (h2, x0) = point_on_ray(center, o, u, t0);
                 if kernel.gaussian {
                     gaussian_quad(kernel.weight, kernel.inv, h2, x0, len, opts.exp_upper, opts.validity_floor)
                 } else {

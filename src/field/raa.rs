@@ -12,7 +12,7 @@
 
 use glam::DVec3;
 
-use super::{Field, KernelEval, PrimEval};
+use super::{Field, KernelEval, PrimEval, point_on_ray};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Affine {
@@ -78,10 +78,8 @@ impl PrimEval {
     pub fn raa(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> Affine {
         match *self {
             PrimEval::Point { center, kernel } => {
-                let co = center - o;
-                let tc = co.dot(u);
-                let h2 = (co - tc * u).length_squared();
-                let (xa, xb) = (ta - tc, tb - tc);
+                let (h2, xa) = point_on_ray(center, o, u, ta);
+                let xb = xa + (tb - ta);
                 if kernel.gaussian {
                     let x = Affine { x0: 0.5 * (xa + xb), x1: 0.5 * (xb - xa), e: 0.0 };
                     let y = x.mul(x).add(Affine { x0: h2, x1: 0.0, e: 0.0 }).scale(kernel.inv);
