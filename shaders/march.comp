@@ -18,13 +18,14 @@ void main() {
     vec3 o = ray.o.xyz;
     vec3 u = ray.d.xyz;
 
+    g_ray = i;
     March m;
     if (push.first_slice != 0u) {
         m = march_start(ray.o.w, ray.d.w);
     } else {
         GpuMarchState s = states[i];
         if ((s.n.w & FLAG_DONE) != 0u) return;
-        m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w, s.node.x, s.node.y);
+        m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w, s.node.x, s.node.y, s.node.z, s.v.w, s.light.w, s.light.rgb, s.trans.rgb);
         g_evals = s.n.y;
     }
     // What remains of the ray: bisection revisits it all, Algorithm 1 only
@@ -38,7 +39,8 @@ void main() {
             march_step(o, u, ray.d.w, m);
         }
     }
-    states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, 0.0), uvec4(m.steps, g_evals, m.refine_evals, m.flags), uvec4(m.depth, m.index, 0u, 0u));
+    states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, m.first), uvec4(m.steps, g_evals, m.refine_evals, m.flags),
+                              uvec4(m.depth, m.index, m.crossings, 0u), vec4(m.color, m.last), vec4(m.transmittance, 0.0));
     if ((m.flags & FLAG_DONE) == 0u) {
         atomicAdd(active_rays, 1u);
         return;
@@ -49,10 +51,17 @@ void main() {
     r.color = vec4(globals.background.rgb, 0.0);
     // Shading evaluations are not marching cost: count only the march.
     r.counts = uvec4(m.steps, g_evals, m.refine_evals, m.flags & (FLAG_HIT | FLAG_OUT_OF_STEPS));
+    r.crossings = uvec4(m.crossings, 0u, 0u, 0u);
     if ((m.flags & FLAG_HIT) != 0u) {
-        vec3 n = surface_normal(o + m.t * u);
-        r.hit = vec4(n, m.t);
+        // The first crossing: its normal and distance.
+        float t = SC_TRANSPARENT != 0u ? m.first : m.t;
+        vec3 n = surface_normal(o + t * u);
+        r.hit = vec4(n, t);
         if (SC_SHADE != 0u) r.color = vec4(shade(n, u), 1.0);
+    }
+    if (SC_TRANSPARENT != 0u && SC_SHADE != 0u) {
+        // What the crossings let through shows the background.
+        r.color = vec4(m.color + m.transmittance * globals.background.rgb, 1.0);
     }
     results[i] = r;
 }

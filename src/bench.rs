@@ -11,7 +11,7 @@ use serde::Serialize;
 use crate::field::Field;
 use crate::field::march::{MarchSettings, march};
 use crate::field::quad::QuadSettings;
-use crate::field::reference::{ReferenceOptions, first_hit};
+use crate::field::reference::{ReferenceOptions, crossings};
 use crate::gpu::Context;
 use crate::layout::{FLAG_HIT, GpuResult, GpuRay};
 use crate::method::Method;
@@ -98,6 +98,9 @@ pub struct BenchReport {
     pub min_step: f64,
     pub max_steps: u32,
     pub reference_hit_rate: f64,
+    /// Transparent scenes: the reference's crossings per ray (miss and
+    /// false-hit rates are then per reference crossing).
+    pub reference_crossings: Option<f64>,
     pub methods: Vec<MethodReport>,
 }
 
@@ -114,6 +117,12 @@ fn progress(len: u64, what: &str) -> ProgressBar {
 
 /// The reference's first hit for every ray (`None`: no crossing).
 pub fn reference_hits(scene: &Scene, rays: &[GpuRay], show_progress: bool) -> Vec<Option<f64>> {
+    reference_crossings(scene, rays, true, show_progress).into_iter().map(|c| c.first().copied()).collect()
+}
+
+/// Every crossing the reference finds along every ray, in order (only the
+/// first with `first_only`).
+pub fn reference_crossings(scene: &Scene, rays: &[GpuRay], first_only: bool, show_progress: bool) -> Vec<Vec<f64>> {
     let field = Field::new(scene);
     let opts = ReferenceOptions::for_min_radius(scene.min_radius());
     let bar = if show_progress { progress(rays.len() as u64, "f64 reference") } else { ProgressBar::hidden() };
@@ -121,9 +130,9 @@ pub fn reference_hits(scene: &Scene, rays: &[GpuRay], show_progress: bool) -> Ve
         .par_iter()
         .map(|r| {
             let ray = Ray::from_gpu(r);
-            let hit = if ray.misses() { None } else { first_hit(&field, ray.o, ray.d, ray.t0, ray.t1, opts) };
+            let found = if ray.misses() { Vec::new() } else { crossings(&field, ray.o, ray.d, ray.t0, ray.t1, opts, first_only) };
             bar.inc(1);
-            hit
+            found.into_iter().map(|c| c.t).collect()
         })
         .collect();
     bar.finish_and_clear();
@@ -168,6 +177,38 @@ pub fn accuracy(results: &[GpuResult], reference: &[Option<f64>], late_by: f64, 
     a
 }
 
+/// Compares every crossing with the reference's (transparent rendering):
+/// in order along each ray, a reference crossing is matched by the next
+/// found crossing within `[tr - early_by, tr + late_by]`; unmatched
+/// reference crossings are misses, unmatched found ones false hits.
+pub fn accuracy_all(found: &[Vec<f32>], reference: &[Vec<f64>], late_by: f64, early_by: f64) -> Accuracy {
+    let mut a = Accuracy::default();
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (found, reference) in found.iter().zip(reference) {
+        let mut next = 0;
+        for &tr in reference {
+            // Found crossings well before this one match nothing.
+            while next < found.len() && f64::from(found[next]) < tr - early_by {
+                a.false_hits += 1;
+                next += 1;
+            }
+            match found.get(next).map(|&t| f64::from(t)) {
+                Some(t) if t <= tr + late_by => {
+                    let e = (t - tr).abs();
+                    sum += e;
+                    n += 1;
+                    a.max_abs_error = a.max_abs_error.max(e);
+                    next += 1;
+                }
+                _ => a.misses += 1,
+            }
+        }
+        a.false_hits += found.len() - next;
+    }
+    a.mean_abs_error = if n > 0 { sum / n as f64 } else { 0.0 };
+    a
+}
+
 /// Runs every method on the same protocol rays and compares them. Each
 /// method runs in each of `variants` that changes it (the first is the
 /// default; rows of the others are marked, e.g. "no cull").
@@ -181,7 +222,8 @@ pub fn run(
     timeout: std::time::Duration,
 ) -> Result<BenchReport> {
     let ray_set = protocol_rays(&scene.bounds, rays, seed);
-    let reference = reference_hits(scene, &ray_set, true);
+    let transparent = scene.transparency.is_some();
+    let reference = reference_crossings(scene, &ray_set, !transparent, true);
     let mut renderer = Renderer::new(ctx, scene)?;
     renderer.timeout = timeout;
     renderer.shade = false;
@@ -197,7 +239,7 @@ pub fn run(
             reports.push(run_one(&mut renderer, scene, method, variant, default, &ray_set, &reference, reports.first())?);
         }
     }
-    let ref_hits = reference.iter().filter(|r| r.is_some()).count();
+    let ref_hits = reference.iter().filter(|r| !r.is_empty()).count();
     Ok(BenchReport {
         scene: scene.source.clone(),
         device: ctx.info.name.clone(),
@@ -206,6 +248,7 @@ pub fn run(
         min_step: scene.marching.min_step,
         max_steps: scene.marching.max_steps,
         reference_hit_rate: ref_hits as f64 / rays.max(1) as f64,
+        reference_crossings: transparent.then(|| reference.iter().map(Vec::len).sum::<usize>() as f64 / rays.max(1) as f64),
         methods: reports,
     })
 }
@@ -219,7 +262,7 @@ fn run_one(
     variant: Variant,
     default: Variant,
     ray_set: &[GpuRay],
-    reference: &[Option<f64>],
+    reference: &[Vec<f64>],
     first: Option<&MethodReport>,
 ) -> Result<MethodReport> {
     let rays = ray_set.len();
@@ -231,8 +274,13 @@ fn run_one(
         let out = renderer.march(method, ray_set, |done| bar.set_position(done as u64))?;
         bar.finish_and_clear();
         let stats = MarchStats::of(&out.results, out.gpu_ns);
-        let acc = accuracy(&out.results, reference, scene.marching.min_step, scene.refine_tolerance());
-        let n = rays.max(1) as f64;
+        let (late, early) = (scene.marching.min_step, scene.refine_tolerance());
+        let (acc, n) = if scene.transparency.is_some() {
+            (accuracy_all(&out.crossings, reference, late, early), reference.iter().map(Vec::len).sum::<usize>().max(1) as f64)
+        } else {
+            let first: Vec<Option<f64>> = reference.iter().map(|c| c.first().copied()).collect();
+            (accuracy(&out.results, &first, late, early), rays.max(1) as f64)
+        };
         let has_gaussians = scene.primitives().any(|p| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. }));
         let validity_kept = (method == Method::Quadratic && has_gaussians).then(|| validity_kept(scene, method, variant.quad, ray_set));
         Ok(MethodReport {
@@ -268,6 +316,7 @@ fn validity_kept(scene: &Scene, method: Method, quad: QuadSettings, rays: &[GpuR
         growth: scene.marching.growth.unwrap_or_else(|| method.default_growth()),
         tolerance: scene.refine_tolerance(),
         quad,
+        transparent: scene.transparency.is_some(),
     };
     let (kept, steps) = rays
         .par_iter()
@@ -291,6 +340,11 @@ pub fn markdown(report: &BenchReport) -> String {
         "scene `{}`, {} rays (seed {}), minimum step {}, maximum steps {}, device {}; reference hit rate {:.4}\n\n",
         report.scene, report.rays, report.seed, report.min_step, report.max_steps, report.device, report.reference_hit_rate
     );
+    if let Some(c) = report.reference_crossings {
+        s.push_str(&format!(
+            "Transparent: every crossing to the box exit; the reference finds {c:.3} crossings per ray, and miss and false-hit rates are per reference crossing.\n\n"
+        ));
+    }
     s.push_str(&format!(
         "| method | steps/ray | evals/ray | refine/ray | ns/ray | hit rate | miss rate | false hits | mean err | max err | steps vs {base} | time vs {base} |\n"
     ));

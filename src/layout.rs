@@ -63,7 +63,9 @@ gpu_structs! {
     /// What the marcher found for one ray. `hit`: xyz unit normal (outward,
     /// towards decreasing field), w hit distance or -1. `color`: shaded RGBA.
     /// `counts`: steps, kernel evaluations, refinement evaluations, flags.
-    struct GpuResult { hit: Vec4, color: Vec4, counts: UVec4 }
+    /// `crossings`: x crossings found (transparent rendering; the first
+    /// `MAX_CROSSINGS` are in the crossings buffer), yzw reserved.
+    struct GpuResult { hit: Vec4, color: Vec4, counts: UVec4, crossings: UVec4 }
 
     /// A forward bound on `[t0, t1]` from the bounds probe:
     /// `lo` = (v, a_lo, b_lo, t_valid), `hi` = (v, a_hi, b_hi, 0). For RAA,
@@ -73,15 +75,21 @@ gpu_structs! {
     /// A ray's marching state between dispatches (see `render::Renderer::march`):
     /// `v`: t, the previous point t_prev, candidate interval length, reserved;
     /// `n`: steps, kernel evaluations, refinement evaluations, flags;
-    /// `node`: the bisection methods' current sub-interval (depth, index).
-    struct GpuMarchState { v: Vec4, n: UVec4, node: UVec4 }
+    /// `node`: the bisection methods' current sub-interval (depth, index),
+    /// z crossings found so far (transparent rendering).
+    /// `v.w`: the first crossing (transparent rendering).
+    /// `light`: transparent rendering's colour so far (rgb) and the last
+    /// crossing (w); `trans`: its transmittance so far (rgb).
+    struct GpuMarchState { v: Vec4, n: UVec4, node: UVec4, light: Vec4, trans: Vec4 }
 
     /// Scene-wide constants. `march`: x iso, y minimum step, z refinement
     /// tolerance, w global Lipschitz bound (sphere tracing).
     /// `sizes`: x primitive count, y group count, z light count, w max steps.
     /// `tuning`: x interval growth factor k (Algorithm 1), y the peak below
     /// which a Gaussian imposes no validity interval (`quadratic`), zw reserved.
-    struct GpuGlobals { march: Vec4, sizes: UVec4, tuning: Vec4, background: Vec4, surface: Vec4, ambient: Vec4 }
+    /// `material`: transparent rendering's absorption per unit length (rgb)
+    /// and opacity of a surface crossing (w).
+    struct GpuGlobals { march: Vec4, sizes: UVec4, tuning: Vec4, background: Vec4, surface: Vec4, ambient: Vec4, material: Vec4 }
 
     /// A directional light: `dir.xyz` towards the light (unit), `color.rgb`
     /// already multiplied by the intensity.
@@ -99,6 +107,11 @@ pub const FLAG_HIT: u32 = 1;
 pub const FLAG_OUT_OF_STEPS: u32 = 2;
 /// The march of this ray is over; its result is written.
 pub const FLAG_DONE: u32 = 4;
+/// Marching state: the current point is inside the surface (transparency).
+pub const FLAG_INSIDE: u32 = 8;
+
+/// Crossings recorded per ray in transparent rendering (more are counted).
+pub const MAX_CROSSINGS: u32 = 32;
 
 /// Marching methods (specialization constant `SC_METHOD`).
 pub const METHOD_SPHERE: u32 = 0;
@@ -123,6 +136,7 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
     (5, "SC_SHADE"),
     (6, "SC_CULL"),
     (7, "SC_EXTENSION"),
+    (8, "SC_TRANSPARENT"),
 ];
 
 /// Integer constants shared with GLSL, as `(name, value)`.
@@ -143,6 +157,8 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("FLAG_HIT", FLAG_HIT),
     ("FLAG_OUT_OF_STEPS", FLAG_OUT_OF_STEPS),
     ("FLAG_DONE", FLAG_DONE),
+    ("FLAG_INSIDE", FLAG_INSIDE),
+    ("MAX_CROSSINGS", MAX_CROSSINGS),
 ];
 
 /// The whole generated `layout.glsl`.

@@ -102,6 +102,7 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
                 growth: 0.0,
                 tolerance: s.refine_tolerance(),
                 quad: QuadSettings::default(),
+                transparent: false,
             };
             // Every method, and bottom-up quadratic also without the
             // per-primitive extension of compact kernels.

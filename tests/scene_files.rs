@@ -93,3 +93,13 @@ fn fig10_gauss_is_fig10_with_gaussian_kernels() {
     }
     assert_eq!(compact.primitive_count(), gauss.primitive_count());
 }
+
+#[test]
+fn fig1_and_fig17_match_their_csvs_and_are_transparent() {
+    for name in ["fig1", "fig17"] {
+        assert_matches_csv(&format!("{name}.ron"), name);
+        let s = Scene::load(&repo_root().join("scenes").join(format!("{name}.ron"))).unwrap();
+        assert!(s.transparency.is_some(), "{name}: BENCHMARKS.md renders it transparent");
+        assert_eq!((s.marching.min_step, s.marching.max_steps), (0.1, 1000), "BENCHMARKS.md protocol");
+    }
+}

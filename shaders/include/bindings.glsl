@@ -16,6 +16,9 @@ layout(std430, binding = 4) writeonly buffer ResultBuffer { GpuResult results[];
 layout(std430, binding = 5) buffer StateBuffer { GpuMarchState states[]; };
 // Rays still marching after this dispatch.
 layout(std430, binding = 6) buffer ActiveBuffer { uint active_rays; };
+// Transparent rendering: each ray's crossings, MAX_CROSSINGS per ray, in
+// order; the first is entering, then they alternate.
+layout(std430, binding = 7) writeonly buffer CrossingBuffer { float crossings[]; };
 
 // One slice of the march of one tile of rays.
 layout(push_constant) uniform Push {

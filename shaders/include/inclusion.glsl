@@ -584,4 +584,10 @@ float upper_root(Bound b) {
     return start >= 0.0 ? 0.0 : first_root(-start, b.a_hi, b.b_hi);
 }
 
+// Algorithm 1's next root: of the upper bound outside (f < 0), of the lower
+// bound inside (transparent rendering marches both).
+float next_root(Bound b) {
+    return b.v > 0.0 ? first_root(b.v, -b.a_lo, -b.b_lo) : upper_root(b);
+}
+
 #endif

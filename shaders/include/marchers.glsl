@@ -11,34 +11,66 @@
 
 #include "field.glsl"
 #include "inclusion.glsl"
+#include "shade.glsl"
 
 struct March {
-    float t;            // current point; the hit distance once FLAG_HIT
-    float t_prev;       // the point before, outside
+    float t;            // current point; the hit distance once FLAG_HIT (opaque)
+    float t_prev;       // the point before, on the other side of a crossing found at t
     float window;       // candidate interval length for the next step
     uint steps;
     uint refine_evals;
     uint flags;
     uint depth;         // bisection: the current node of the binary
     uint index;         //   subdivision of [tmin, tmax]
+    // Transparent rendering:
+    uint crossings;     // crossings found so far
+    float first;        // the first crossing
+    float last;         // the last crossing
+    vec3 color;         // light gathered so far, front to back
+    vec3 transmittance; // what still passes
 };
 
-// Bisection between a (outside, f < 0) and b (inside, f >= 0) down to the
-// refinement tolerance; returns the inside end, so the hit is never early.
-float refine_crossing(vec3 o, vec3 u, float a, float b) {
+// The ray being marched (its crossings go to crossings[]).
+uint g_ray = 0u;
+
+// Bisection between a and b, where f changes sign (a on the side given by
+// a_inside), down to the refinement tolerance; returns the end past the
+// crossing, so a crossing is never reported early.
+float refine_crossing(vec3 o, vec3 u, float a, float b, bool a_inside) {
     float tol = globals.march.z;
     for (int i = 0; i < 64 && b - a > tol; ++i) {
         float m = 0.5 * (a + b);
         if (m <= a || m >= b) break;
-        if (field(o + m * u) >= 0.0) b = m; else a = m;
+        if ((field(o + m * u) >= 0.0) == a_inside) a = m; else b = m;
     }
     return b;
 }
 
 March march_start(float tmin, float tmax) {
-    March m = March(tmin, tmin, tmax - tmin, 0u, 0u, 0u, 0u, 0u);
+    March m = March(tmin, tmin, tmax - tmin, 0u, 0u, 0u, 0u, 0u, 0u, -1.0, tmin, vec3(0.0), vec3(1.0));
     if (!(tmax >= tmin)) m.flags = FLAG_DONE;
     return m;
+}
+
+// Transparent rendering: a crossing at tc (Section 7.2). It is recorded;
+// the surface there shows its shaded colour with weight `opacity` and
+// passes the rest; leaving, the light crossed the inside since the last
+// crossing and is attenuated by Beer-Lambert. Shading evaluations are not
+// marching cost, so they are not counted.
+void on_crossing(vec3 o, vec3 u, float tc, bool entering, inout March m) {
+    if (m.crossings < MAX_CROSSINGS) crossings[g_ray * MAX_CROSSINGS + m.crossings] = tc;
+    if (m.crossings == 0u) m.first = tc;
+    m.crossings += 1u;
+    if (SC_SHADE != 0u) {
+        if (!entering) m.transmittance *= exp(-globals.material.rgb * (tc - m.last));
+        uint evals = g_evals;
+        vec3 n = surface_normal(o + tc * u);
+        g_evals = evals;
+        float opacity = globals.material.w;
+        m.color += m.transmittance * opacity * shade(n, u);
+        m.transmittance *= 1.0 - opacity;
+    }
+    m.last = tc;
 }
 
 // One iteration of Algorithm 1: f at t (from the bound itself where the
@@ -65,19 +97,28 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
     } else {
         Bound b = method_bound(o, u, m.t, t_end);   // may shorten t_end
         f = b.v;
-        // A step is taken only from outside (f < 0; f >= 0 is a hit
+        // Opaque marching steps only from outside (f < 0; f >= 0 is a hit
         // below), so only the upper bound's root is needed, and the
         // compiler drops the lower bounds' arithmetic altogether.
-        step = min(upper_root(b), t_end - m.t);
+        step = min(SC_TRANSPARENT != 0u ? next_root(b) : upper_root(b), t_end - m.t);
     }
-    if (f >= 0.0) {
+    // A crossing: f >= 0 entering, f <= 0 again leaving (BENCHMARKS.md).
+    bool inside = (m.flags & FLAG_INSIDE) != 0u;
+    if (inside ? f <= 0.0 : f >= 0.0) {
+        float tc = m.t;
         if (m.steps > 1u) {
             uint before = g_evals;
-            m.t = refine_crossing(o, u, m.t_prev, m.t);
+            tc = refine_crossing(o, u, m.t_prev, m.t, inside);
             m.refine_evals += g_evals - before;
         }
-        m.flags |= FLAG_DONE | FLAG_HIT;
-        return;
+        m.flags |= FLAG_HIT;
+        if (SC_TRANSPARENT == 0u) {
+            m.t = tc;
+            m.flags |= FLAG_DONE;
+            return;
+        }
+        on_crossing(o, u, tc, !inside, m);
+        m.flags ^= FLAG_INSIDE;
     }
     if (m.t >= tmax) {
         m.flags |= FLAG_DONE;
@@ -141,7 +182,7 @@ void bisection_step(vec3 o, vec3 u, float tmin, float tmax, inout March m) {
     if (len <= globals.march.y || m.depth >= 30u) {
         if (field(o + b * u) >= 0.0) {
             uint before = g_evals;
-            m.t = refine_crossing(o, u, a, b);
+            m.t = refine_crossing(o, u, a, b, false);
             m.refine_evals += g_evals - before;
             m.flags |= FLAG_DONE | FLAG_HIT;
             return;

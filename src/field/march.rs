@@ -19,13 +19,19 @@ pub struct MarchSettings {
     pub growth: f64,
     pub tolerance: f64,
     pub quad: QuadSettings,
+    /// Every crossing to the end of the interval (transparent rendering),
+    /// not only the first.
+    pub transparent: bool,
 }
 
 /// What an f64 march found: the hit distance (the inside end of the
 /// refined bracket) and the steps taken; `None` hit on a miss.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct MarchResult {
+    /// The first crossing.
     pub hit: Option<f64>,
+    /// Every crossing found, in order (transparent marching; else the first).
+    pub crossings: Vec<f64>,
     pub steps: u32,
     pub out_of_steps: bool,
     /// Sum over the steps with a bound of the fraction of the requested
@@ -36,8 +42,7 @@ pub struct MarchResult {
 /// The first crossing of `o + t u` on `[t0, t1]` found by `method`.
 pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64, s: MarchSettings) -> MarchResult {
     let at = |t: f64| field.value(o + t * u);
-    let refine = |a: f64, b: f64| refine_inside(&at, a, b, s.tolerance);
-    let mut r = MarchResult { hit: None, steps: 0, out_of_steps: false, kept: 0.0 };
+    let mut r = MarchResult { hit: None, crossings: Vec::new(), steps: 0, out_of_steps: false, kept: 0.0 };
     if !(t1 >= t0) {
         return r;
     }
@@ -45,6 +50,7 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
         return bisection(field, method, o, u, t0, t1, s);
     }
     let (mut t, mut t_prev, mut window) = (t0, t0, t1 - t0);
+    let mut inside = false;
     loop {
         if r.steps >= s.max_steps {
             r.out_of_steps = true;
@@ -72,9 +78,15 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
                 (b.v, next_root(&b).min(b.t_valid - t))
             }
         };
-        if f >= 0.0 {
-            r.hit = Some(if r.steps > 1 { refine(t_prev, t) } else { t });
-            return r;
+        // A crossing: f >= 0 entering, f <= 0 again leaving.
+        if if inside { f <= 0.0 } else { f >= 0.0 } {
+            let tc = if r.steps > 1 { refine_past(&at, t_prev, t, inside, s.tolerance) } else { t };
+            r.hit = r.hit.or(Some(tc));
+            r.crossings.push(tc);
+            if !s.transparent {
+                return r;
+            }
+            inside = !inside;
         }
         if t >= t1 {
             return r;
@@ -90,10 +102,11 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
     }
 }
 
-/// Bisection of a crossing in `[a, b]` (outside at a) to `tolerance`,
-/// reported at the bracket's inside end like the GPU's refinement.
-fn refine_inside(at: &impl Fn(f64) -> f64, a: f64, b: f64, tolerance: f64) -> f64 {
-    let m = bisect(at, a, b, false, tolerance);
+/// Bisection of a crossing in `[a, b]` (`a_inside` says which side a is
+/// on) to `tolerance`, reported at the bracket's end past the crossing like
+/// the GPU's refinement.
+fn refine_past(at: &impl Fn(f64) -> f64, a: f64, b: f64, a_inside: bool, tolerance: f64) -> f64 {
+    let m = bisect(at, a, b, a_inside, tolerance);
     (m + 0.5 * tolerance).min(b)
 }
 
@@ -101,10 +114,11 @@ fn refine_inside(at: &impl Fn(f64) -> f64, a: f64, b: f64, tolerance: f64) -> f6
 /// recursive form).
 fn bisection(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64, s: MarchSettings) -> MarchResult {
     let at = |t: f64| field.value(o + t * u);
-    let mut r = MarchResult { hit: None, steps: 0, out_of_steps: false, kept: 0.0 };
+    let mut r = MarchResult { hit: None, crossings: Vec::new(), steps: 0, out_of_steps: false, kept: 0.0 };
     r.steps = 1;
     if at(t0) >= 0.0 {
         r.hit = Some(t0);
+        r.crossings.push(t0);
         return r;
     }
     r.steps = 0;
@@ -128,7 +142,9 @@ fn bisection(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
         }
         if len <= s.min_step || depth >= 30 {
             if at(b) >= 0.0 {
-                r.hit = Some(refine_inside(&at, a, b, s.tolerance));
+                let tc = refine_past(&at, a, b, false, s.tolerance);
+                r.hit = Some(tc);
+                r.crossings.push(tc);
                 return r;
             }
             continue;

@@ -39,12 +39,13 @@ struct PipelineKey {
     shade: bool,
     cull: bool,
     extension: bool,
+    transparent: bool,
 }
 
 /// Rays per dispatch: big images become many bounded dispatches.
 pub const TILE_RAYS: usize = 1 << 16;
 const WORKGROUP: usize = 64;
-const BINDINGS: u32 = 7;
+const BINDINGS: u32 = 8;
 const PUSH_CONSTANT_BYTES: u32 = 12;
 
 /// Loop iterations one invocation may run per dispatch. lavapipe silently
@@ -90,6 +91,10 @@ mod tests {
 /// What the march of a batch of rays produced.
 pub struct MarchOutput {
     pub results: Vec<GpuResult>,
+    /// Transparent rendering: every ray's crossings in order (at most
+    /// `MAX_CROSSINGS` each; `GpuResult::crossings.x` counts them all).
+    /// Empty when opaque.
+    pub crossings: Vec<Vec<f32>>,
     /// GPU time from timestamp queries, summed over tiles (`None` when the
     /// device has no timestamps).
     pub gpu_ns: Option<f64>,
@@ -106,6 +111,7 @@ pub struct Renderer {
     results: Buffer,
     states: Buffer,
     active: Buffer,
+    crossings: Buffer,
     slice_steps: u32,
     pipelines: HashMap<PipelineKey, ComputePipeline>,
     submitter: Submitter,
@@ -121,6 +127,9 @@ pub struct Renderer {
     /// Settings of the bottom-up quadratic bounds; from the scene's
     /// `marching`.
     pub quad: QuadSettings,
+    /// Every crossing along each ray (transparent rendering); from the
+    /// scene's `transparency`.
+    pub transparent: bool,
 }
 
 /// The primitives in GPU layout, sorted by group.
@@ -176,6 +185,9 @@ fn globals(scene: &Scene, growth: f64, quad: QuadSettings) -> GpuGlobals {
         background: rgb(scene.background),
         surface: rgb(scene.surface),
         ambient: rgb(scene.ambient),
+        material: scene.transparency.map_or([0.0; 4], |t| {
+            [t.absorption.x as f32, t.absorption.y as f32, t.absorption.z as f32, t.opacity as f32]
+        }),
     }
 }
 
@@ -183,7 +195,7 @@ fn globals(scene: &Scene, growth: f64, quad: QuadSettings) -> GpuGlobals {
 /// Per-ray support culling keeps one bit per primitive.
 pub const CULL_MAX_PRIMITIVES: usize = 64;
 
-pub fn specialization(scene: &Scene, method: Method, shade: bool, cull: bool, extension: bool) -> Vec<(u32, u32)> {
+fn specialization(scene: &Scene, method: Method, key: &PipelineKey) -> Vec<(u32, u32)> {
     let has = |pred: fn(&Primitive) -> bool| u32::from(scene.primitives().any(pred));
     let values = [
         ("SC_METHOD", method.shader_id()),
@@ -191,9 +203,10 @@ pub fn specialization(scene: &Scene, method: Method, shade: bool, cull: bool, ex
         ("SC_HAS_GAUSSIAN_POINT", has(|p| matches!(p, Primitive::Point { kernel: scene::Kernel::Gaussian { .. }, .. }))),
         ("SC_HAS_COMPACT_PLANE", has(|p| matches!(p, Primitive::Plane { .. }))),
         ("SC_MULTI_GROUP", u32::from(scene.groups.len() > 1)),
-        ("SC_SHADE", u32::from(shade)),
-        ("SC_CULL", u32::from(cull && scene.primitive_count() <= CULL_MAX_PRIMITIVES)),
-        ("SC_EXTENSION", u32::from(extension)),
+        ("SC_SHADE", u32::from(key.shade)),
+        ("SC_CULL", u32::from(key.cull && scene.primitive_count() <= CULL_MAX_PRIMITIVES)),
+        ("SC_EXTENSION", u32::from(key.extension)),
+        ("SC_TRANSPARENT", u32::from(key.transparent)),
     ];
     values
         .iter()
@@ -234,6 +247,7 @@ impl Renderer {
             results: Buffer::new(ctx, "results", (TILE_RAYS * size_of::<GpuResult>()) as u64)?,
             states: Buffer::new(ctx, "march states", (TILE_RAYS * size_of::<GpuMarchState>()) as u64)?,
             active: Buffer::new(ctx, "active ray count", 16)?,
+            crossings: Buffer::new(ctx, "crossings", (TILE_RAYS * layout::MAX_CROSSINGS as usize * size_of::<f32>()) as u64)?,
             slice_steps,
             pipelines: HashMap::new(),
             submitter: Submitter::new(ctx)?,
@@ -244,6 +258,7 @@ impl Renderer {
             growth: None,
             cull: true,
             quad: scene.marching.quad,
+            transparent: scene.transparency.is_some(),
         })
     }
 
@@ -252,15 +267,15 @@ impl Renderer {
     }
 
     fn pipeline(&mut self, entry: EntryPoint, method: Method) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
-        let key = PipelineKey { entry, method, shade: self.shade, cull: self.cull, extension: self.quad.extension };
+        let key = PipelineKey { entry, method, shade: self.shade, cull: self.cull, extension: self.quad.extension, transparent: self.transparent };
         if !self.pipelines.contains_key(&key) {
-            let spec = specialization(&self.scene, method, self.shade, self.cull, self.quad.extension);
+            let spec = specialization(&self.scene, method, &key);
             let spirv = match entry {
                 EntryPoint::March => MARCH_SPV,
                 EntryPoint::BoundsProbe => BOUNDS_SPV,
             };
             let p = ComputePipeline::new(&self.ctx, spirv, BINDINGS, PUSH_CONSTANT_BYTES, &spec)?;
-            p.bind(&[&self.globals, &self.prims, &self.lights, &self.rays, &self.results, &self.states, &self.active])?;
+            p.bind(&[&self.globals, &self.prims, &self.lights, &self.rays, &self.results, &self.states, &self.active, &self.crossings])?;
             self.pipelines.insert(key, p);
         }
         let p = &self.pipelines[&key];
@@ -314,7 +329,11 @@ impl Renderer {
         let handles = self.pipeline(EntryPoint::March, method)?;
         let growth = self.growth.or(self.scene.marching.growth).unwrap_or_else(|| method.default_growth());
         self.globals.write(0, &[globals(&self.scene, growth, self.quad)])?;
+        if self.transparent && matches!(method, Method::LinearBisection | Method::Raa) {
+            bail!("{method} marches opaque scenes only: its bisection stops at the first crossing; use an Algorithm 1 method for transparency");
+        }
         let mut results = Vec::with_capacity(rays.len());
+        let mut crossings = Vec::new();
         let mut gpu_ns = Some(0.0);
         // Every slice but a ray's last takes `slice_steps` steps.
         let max_slices = self.scene.marching.max_steps / self.slice_steps + 2;
@@ -332,9 +351,17 @@ impl Renderer {
                     break;
                 }
             }
-            results.extend(self.results.read::<GpuResult>(0, tile.len())?);
+            let tile_results = self.results.read::<GpuResult>(0, tile.len())?;
+            if self.transparent {
+                let max = layout::MAX_CROSSINGS as usize;
+                let all = self.crossings.read::<f32>(0, tile.len() * max)?;
+                for (r, ts) in tile_results.iter().zip(all.chunks(max)) {
+                    crossings.push(ts[..(r.crossings[0] as usize).min(max)].to_vec());
+                }
+            }
+            results.extend(tile_results);
             progress(results.len());
         }
-        Ok(MarchOutput { results, gpu_ns })
+        Ok(MarchOutput { results, crossings, gpu_ns })
     }
 }

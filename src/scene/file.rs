@@ -20,6 +20,10 @@ pub struct SceneFile {
     /// Surface colour, linear RGB in [0, 1].
     #[serde(default = "default_surface")]
     pub surface: [f64; 3],
+    /// Transparent rendering: every crossing along a ray (Section 7.2).
+    /// Absent: opaque, the first crossing only.
+    #[serde(default)]
+    pub transparency: Option<TransparencyFile>,
     /// The iso value: the surface is where the field equals it.
     pub iso: f64,
     #[serde(default)]
@@ -30,6 +34,22 @@ pub struct SceneFile {
     /// Groups of primitives: fields are summed within a group and groups are
     /// combined by max (Eq. 20).
     pub groups: Vec<GroupFile>,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransparencyFile {
+    /// How much of the light each surface crossing reflects towards the
+    /// viewer (its shaded colour), in [0, 1]; the rest passes on.
+    #[serde(default = "default_opacity")]
+    pub opacity: f64,
+    /// Absorption per unit length inside, linear RGB (Beer-Lambert).
+    #[serde(default)]
+    pub absorption: [f64; 3],
+}
+
+fn default_opacity() -> f64 {
+    0.2
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

@@ -43,6 +43,15 @@ pub struct Light {
     pub color: DVec3,
 }
 
+/// Transparent rendering (Section 7.2): every crossing along a ray is
+/// found; each surface crossing shows its shaded colour with weight
+/// `opacity` and passes the rest on, attenuated inside by Beer-Lambert.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transparency {
+    pub opacity: f64,
+    pub absorption: DVec3,
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Marching {
     pub method: Method,
@@ -127,6 +136,8 @@ pub struct Scene {
     pub surface: DVec3,
     pub lights: Vec<Light>,
     pub iso: f64,
+    /// `None`: opaque, the first crossing only.
+    pub transparency: Option<Transparency>,
     pub marching: Marching,
     /// Max over groups of sums over primitives (Eq. 20).
     pub groups: Vec<Vec<Primitive>>,
@@ -267,6 +278,19 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         "every" => ValidityScope::Every,
         other => return Err(c.err("marching.validity", format!("expected \"significant\" or \"every\", got {other:?}"))),
     };
+    let transparency = match &f.transparency {
+        None => None,
+        Some(t) => {
+            if !(0.0..=1.0).contains(&t.opacity) {
+                return Err(c.err("transparency.opacity", format!("must be in [0, 1], got {}", t.opacity)));
+            }
+            let absorption = c.vec3("transparency.absorption", t.absorption)?;
+            if absorption.min_element() < 0.0 {
+                return Err(c.err("transparency.absorption", format!("must be >= 0 on every channel, got {:?}", t.absorption)));
+            }
+            Some(Transparency { opacity: t.opacity, absorption })
+        }
+    };
     let mut lights = Vec::new();
     for (i, l) in f.lights.iter().enumerate() {
         let direction = c.unit(&format!("lights[{i}].direction"), l.direction)?;
@@ -360,6 +384,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         surface: c.color("surface", f.surface)?,
         lights,
         iso,
+        transparency,
         marching: Marching { method, min_step, max_steps: f.marching.max_steps, growth, quad: QuadSettings { extension: f.marching.extension, validity } },
         groups,
         bounds,
