@@ -80,3 +80,15 @@ fn fig10_every_method_matches_its_goldens() {
         check_golden(&format!("fig10-{method}-96-steps"), &heat);
     }
 }
+
+/// Transparent rendering: every crossing composited front to back.
+#[test]
+fn transparent_scenes_match_their_goldens() {
+    for scene in ["fig1", "fig17"] {
+        for method in [Method::Segment, Method::QuadraticTaylor] {
+            let (shaded, heat) = render(&format!("{scene}.ron"), method, 96);
+            check_golden(&format!("{scene}-{method}-96"), &shaded);
+            check_golden(&format!("{scene}-{method}-96-steps"), &heat);
+        }
+    }
+}

@@ -4,7 +4,7 @@ mod common;
 
 use common::*;
 use glam::DVec3;
-use isomarch::bench::{accuracy, reference_hits};
+use isomarch::bench::{accuracy, accuracy_all, reference_crossings, reference_hits};
 use isomarch::field::quad::{QuadSettings, ValidityScope};
 use isomarch::layout::{FLAG_HIT, GpuResult};
 use isomarch::output::MarchStats;
@@ -166,4 +166,78 @@ fn segment_tracing_takes_fewer_steps_than_sphere_tracing_on_fig10() {
     let (sphere, segment) = (steps(&mut renderer, Method::Sphere), steps(&mut renderer, Method::Segment));
     assert!(segment < 0.8 * sphere, "segment {segment} steps/ray against sphere {sphere}");
     assert_no_validation(&ctx);
+}
+
+/// Transparent marching (Section 7.2) finds every crossing the f64
+/// reference finds, entering and leaving, in order, with a tiny minimum
+/// step: every Algorithm 1 method and the two baselines, on the GPU and
+/// with the f64 mirror, on random sum and max scenes.
+#[test]
+fn transparent_marching_finds_every_crossing_on_gpu_and_f64() {
+    let ctx = gpu();
+    let mut report = Vec::new();
+    let mut checked = 0usize;
+    for seed in 0..3u64 {
+        for max_of_groups in [false, true] {
+            let mut s = random_scene(100 + seed, max_of_groups, Method::Segment);
+            s.transparency = Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::splat(0.1) });
+            let rays = protocol_rays(&s.bounds, 512, seed);
+            let reference = reference_crossings(&s, &rays, false, false);
+            checked += reference.iter().map(Vec::len).sum::<usize>();
+            let mut renderer = Renderer::new(&ctx, &s).unwrap();
+            let field = isomarch::field::Field::new(&s);
+            let tol = 2.0 * s.refine_tolerance() + 1e-5;
+            for &method in Method::ALL.iter().filter(|m| !matches!(m, Method::LinearBisection | Method::Raa)) {
+                let out = renderer.march(method, &rays, |_| {}).unwrap();
+                let stats = MarchStats::of(&out.results, None);
+                assert_eq!(stats.out_of_steps_rate, 0.0, "seed {seed} {method}: rays ran out of steps");
+                let acc = accuracy_all(&out.crossings, &reference, tol, tol);
+                if acc.misses + acc.false_hits > 0 {
+                    report.push(format!("seed {seed} max={max_of_groups} {method}: {} missed, {} false crossings", acc.misses, acc.false_hits));
+                }
+                let settings = isomarch::field::march::MarchSettings {
+                    min_step: s.marching.min_step,
+                    max_steps: s.marching.max_steps,
+                    growth: method.default_growth(),
+                    tolerance: s.refine_tolerance(),
+                    quad: QuadSettings::default(),
+                    transparent: true,
+                };
+                let mirror: Vec<Vec<f32>> = rays
+                    .iter()
+                    .take(128)
+                    .map(|r| {
+                        let ray = Ray::from_gpu(r);
+                        if ray.misses() {
+                            return Vec::new();
+                        }
+                        let m = isomarch::field::march::march(&field, method, ray.o, ray.d, ray.t0, ray.t1, settings);
+                        m.crossings.iter().map(|&t| t as f32).collect()
+                    })
+                    .collect();
+                let acc = accuracy_all(&mirror, &reference[..128], tol, tol);
+                if acc.misses + acc.false_hits > 0 {
+                    report.push(format!("seed {seed} max={max_of_groups} {method} f64 mirror: {} missed, {} false crossings", acc.misses, acc.false_hits));
+                }
+            }
+        }
+    }
+    assert!(checked > 500, "only {checked} reference crossings: the test is not looking at much");
+    assert!(report.is_empty(), "disagreements with the f64 reference:\n{}", report.join("\n"));
+    assert_no_validation(&ctx);
+}
+
+/// The bisection baselines stop at the first crossing: asked for a
+/// transparent march they refuse with a message, they do not pretend.
+#[test]
+fn bisection_methods_refuse_transparent_marching() {
+    let ctx = gpu();
+    let mut s = random_scene(1, false, Method::Raa);
+    s.transparency = Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::ZERO });
+    let rays = protocol_rays(&s.bounds, 16, 1);
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    for method in [Method::Raa, Method::LinearBisection] {
+        let err = renderer.march(method, &rays, |_| {}).err().expect("refused");
+        assert!(err.to_string().contains("opaque"), "{err}");
+    }
 }
