@@ -65,11 +65,11 @@ impl Variant {
     /// Does this variant differ from `other` in a way that changes
     /// `method` on `scene`?
     fn matters(&self, other: &Variant, method: Method, scene: &Scene) -> bool {
-        let bottom_up = method.exp_upper().is_some();
+        let extends = method.exp_upper().is_some() || matches!(method, Method::LinearTaylor | Method::QuadraticTaylor);
         let gaussian = |p: &Primitive| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. });
         let (gaussians, compacts) = (scene.primitives().any(gaussian), scene.primitives().any(|p| !gaussian(p)));
         self.cull != other.cull
-            || (bottom_up && compacts && self.quad.extension != other.quad.extension)
+            || (extends && compacts && self.quad.extension != other.quad.extension)
             || (method == Method::Quadratic && gaussians && self.quad.validity != other.quad.validity)
     }
 

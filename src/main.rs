@@ -113,8 +113,8 @@ enum Command {
         /// or both to measure it in one run.
         #[arg(long, value_parser = ["on", "off", "both"], default_value = "on")]
         cull: String,
-        /// Per-primitive extension of compact kernels for the bottom-up
-        /// quadratic methods (Section 6.2.1): on, off, or both to measure it
+        /// Per-primitive bounds of compact kernels (Section 6.2.1) for the
+        /// Taylor and bottom-up quadratic methods: on, off, or both to measure it
         /// in one run (default: the scene's marching.extension).
         #[arg(long, value_parser = ["on", "off", "both"])]
         extension: Option<String>,

@@ -20,12 +20,15 @@ use rand_pcg::Pcg64Mcg;
 
 const DEFAULT: QuadSettings = QuadSettings { extension: true, validity: ValidityScope::Significant };
 
-/// Every inclusion method with a forward bound of its own, and the
-/// bottom-up quadratic one also without the per-primitive extension of
-/// compact kernels and with validity intervals for every Gaussian.
-const INCLUSION: [(Method, QuadSettings); 8] = [
+/// Every inclusion method with a forward bound of its own; the Taylor and
+/// bottom-up quadratic ones also without the per-primitive extension of
+/// compact kernels, and bottom-up quadratic with validity intervals for
+/// every Gaussian.
+const INCLUSION: [(Method, QuadSettings); 10] = [
     (Method::LinearTaylor, DEFAULT),
+    (Method::LinearTaylor, QuadSettings { extension: false, ..DEFAULT }),
     (Method::QuadraticTaylor, DEFAULT),
+    (Method::QuadraticTaylor, QuadSettings { extension: false, ..DEFAULT }),
     (Method::Linear, DEFAULT),
     (Method::Quadratic, DEFAULT),
     (Method::Quadratic, QuadSettings { extension: false, ..DEFAULT }),
@@ -252,7 +255,7 @@ fn taylor_derivative_ranges_are_tight() {
         for p in field.groups.iter().flatten() {
             let at = |t: f64| p.value(r.o + t * r.d);
             for order in [Order::Linear, Order::Quadratic] {
-                let k = p.taylor(r.o, r.d, r.t0, r.t1, order);
+                let k = p.taylor(r.o, r.d, r.t0, r.t1, order, false);
                 let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
                 for i in 0..=2000 {
                     let t = r.t0 + (r.t1 - r.t0) * f64::from(i) / 2000.0;

@@ -108,7 +108,11 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
             // per-primitive extension of compact kernels.
             let every = QuadSettings { validity: ValidityScope::Every, ..QuadSettings::default() };
             let no_extension = QuadSettings { extension: false, ..QuadSettings::default() };
-            let variants = Method::ALL.iter().map(|&m| (m, QuadSettings::default())).chain([(Method::Quadratic, no_extension), (Method::Quadratic, every)]);
+            let variants = Method::ALL.iter().map(|&m| (m, QuadSettings::default())).chain([
+                (Method::Quadratic, no_extension),
+                (Method::QuadraticTaylor, no_extension),
+                (Method::Quadratic, every),
+            ]);
             for (method, quad) in variants {
                 let method_label = format!("{method} ({quad:?})");
                 renderer.quad = quad;

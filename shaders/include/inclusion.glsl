@@ -50,7 +50,11 @@ float compact_deriv(float w, float inv_r2, float a, float x, bool QUADRATIC) {
     return QUADRATIC ? -6.0 * w * q * (a - 5.0 * x * x * inv_r2) * inv_r2 : -6.0 * w * x * q * q * inv_r2;
 }
 
-Taylor compact_taylor(float w, float inv_r2, float radius, float h2, float x0, float x1, bool QUADRATIC) {
+// EXTEND: a support entered after x0 gets the per-primitive bound of
+// Section 6.2.1 (entering_taylor in src/field/bounds.rs): the Taylor bound
+// from the entry, where the kernel and two derivatives vanish, moved to
+// start at x0; scale r or r², r = (xb - xa)/(xb - x0); lower bound 0.
+Taylor compact_taylor(float w, float inv_r2, float radius, float h2, float x0, float x1, bool QUADRATIC, bool EXTEND) {
     Taylor k = Taylor(0.0, 0.0, 0.0, 0.0);
     float a = 1.0 - h2 * inv_r2;
     if (a <= 0.0) return k;
@@ -70,6 +74,10 @@ Taylor compact_taylor(float w, float inv_r2, float radius, float h2, float x0, f
     float d0 = QUADRATIC ? compact_deriv(w, inv_r2, a, clamp(0.0, xa, xb), true) : da;
     k.lo = min(min(min(da, db), min(dm, dp)), d0);
     k.hi = max(max(max(da, db), max(dm, dp)), d0);
+    if (EXTEND && xa > x0) {
+        float r = (xb - xa) / (xb - x0);
+        k = Taylor(0.0, 0.0, 0.0, max(k.hi, 0.0) * (QUADRATIC ? r * r : r));
+    }
     return k;
 }
 
@@ -104,7 +112,7 @@ Taylor prim_taylor(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1, bool QUA
         float s0 = s.x;
         float sigma = s.y;
         float s1 = plane_on_ray(pr, o, u, t1).x;
-        Taylor k = compact_taylor(pr.b.z, pr.b.y, pr.b.x, 0.0, min(s0, s1), max(s0, s1), QUADRATIC);
+        Taylor k = compact_taylor(pr.b.z, pr.b.y, pr.b.x, 0.0, min(s0, s1), max(s0, s1), QUADRATIC, false);
         vec3 d0 = compact_derivs(pr.b.z, pr.b.y, 1.0, s0);
         float scale = QUADRATIC ? sigma * sigma : sigma;
         float lo = k.lo * scale;
@@ -113,7 +121,7 @@ Taylor prim_taylor(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1, bool QUA
     }
     vec2 g = point_on_ray(pr, o, u, t0);
     if (kind == PRIM_GAUSSIAN_POINT) return gaussian_taylor(pr.b.z, pr.b.y, g.x, g.y, g.y + (t1 - t0), QUADRATIC);
-    return compact_taylor(pr.b.z, pr.b.y, pr.b.x, g.x, g.y, g.y + (t1 - t0), QUADRATIC);
+    return compact_taylor(pr.b.z, pr.b.y, pr.b.x, g.x, g.y, g.y + (t1 - t0), QUADRATIC, SC_EXTENSION != 0u);
 }
 
 // Max of two forward bounds on [0, len] (Section 5.2, Appendix C): lower is

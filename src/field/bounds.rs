@@ -99,8 +99,10 @@ fn range(g: impl Fn(f64) -> f64, x0: f64, x1: f64, candidates: &[f64]) -> (f64, 
     (lo, hi)
 }
 
-/// A kernel as a function of `x` along the ray: `q = x² + h2`.
-fn kernel_taylor(k: &KernelEval, h2: f64, x0: f64, x1: f64, order: Order) -> Taylor {
+/// A kernel as a function of `x` along the ray: `q = x² + h2`. With
+/// `extension`, a compact support entered after `x0` gets the per-primitive
+/// bound of Section 6.2.1: see [`entering_taylor`].
+fn kernel_taylor(k: &KernelEval, h2: f64, x0: f64, x1: f64, order: Order, extension: bool) -> Taylor {
     let pick = |d: (f64, f64, f64)| if order == Order::Linear { d.1 } else { d.2 };
     if k.gaussian {
         let alpha = k.inv;
@@ -126,17 +128,36 @@ fn kernel_taylor(k: &KernelEval, h2: f64, x0: f64, x1: f64, order: Order) -> Tay
         let c2 = l * 0.6f64.sqrt();
         let cands: &[f64] = if order == Order::Linear { &[-c1, c1] } else { &[0.0, -c2, c2] };
         let (min, max) = range(|x| pick(compact_derivs(k.weight, k.inv, a, x)), xa, xb, cands);
+        if extension && xa > x0 {
+            return entering_taylor(max, (xb - xa) / (xb - x0), order);
+        }
         Taylor { value, slope, min, max }
     }
 }
 
+/// Section 6.2.1 for the Taylor forms: a compact support entered at `xa`
+/// after the interval's start. The kernel and its first two derivatives
+/// vanish at the entry (it is C²), so on the support part the Taylor bound
+/// from the entry is `M s` (linear) or `M s²/2` (quadratic), `s` measured
+/// from the entry and `M >= 0` the largest f′ or f″ there. Moved to start
+/// at `x0` as in Figure 9 (the middle control point is 0), it becomes
+/// `M r τ` or `M r² τ²/2` with `r = (xb - xa)/(xb - x0)`: above the kernel
+/// up to the exit `xb`, and above its 0 before the entry and after the exit.
+/// The kernel is >= 0, so the lower bound is 0.
+fn entering_taylor(max: f64, r: f64, order: Order) -> Taylor {
+    let scale = if order == Order::Linear { r } else { r * r };
+    Taylor { value: 0.0, slope: 0.0, min: 0.0, max: max.max(0.0) * scale }
+}
+
 impl PrimEval {
-    /// Taylor data of this primitive along `o + t u` on `[t0, t1]`.
-    pub fn taylor(&self, o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order) -> Taylor {
+    /// Taylor data of this primitive along `o + t u` on `[t0, t1]`; with
+    /// `extension`, the per-primitive bound of a compact point entered
+    /// late (Section 6.2.1).
+    pub fn taylor(&self, o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order, extension: bool) -> Taylor {
         match *self {
             PrimEval::Point { center, kernel } => {
                 let (h2, x0) = point_on_ray(center, o, u, t0);
-                kernel_taylor(&kernel, h2, x0, x0 + (t1 - t0), order)
+                kernel_taylor(&kernel, h2, x0, x0 + (t1 - t0), order, extension)
             }
             PrimEval::Plane { normal, offset, kernel } => {
                 // Signed distance s = s0 + σ t: the kernel of s with h = 0,
@@ -145,7 +166,7 @@ impl PrimEval {
                 let s0 = normal.dot(o + t0 * u) - offset;
                 let s1 = normal.dot(o + t1 * u) - offset;
                 let (lo, hi) = (s0.min(s1), s0.max(s1));
-                let mut k = kernel_taylor(&kernel, 0.0, lo, hi, order);
+                let mut k = kernel_taylor(&kernel, 0.0, lo, hi, order, false);
                 // kernel_taylor evaluated value/slope at `lo`; redo them at s0.
                 let (value, slope, _) = compact_derivs(kernel.weight, kernel.inv, 1.0, s0);
                 k.value = value;
@@ -161,10 +182,10 @@ impl PrimEval {
 }
 
 /// The Taylor bound of one group (a sum): per-primitive ranges add.
-pub fn group_taylor(group: &[PrimEval], o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order) -> Bound {
+pub fn group_taylor(group: &[PrimEval], o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order, extension: bool) -> Bound {
     let mut s = Taylor::default();
     for p in group {
-        let k = p.taylor(o, u, t0, t1, order);
+        let k = p.taylor(o, u, t0, t1, order, extension);
         s.value += k.value;
         s.slope += k.slope;
         s.min += k.min;
@@ -205,8 +226,8 @@ pub fn max_bound(f: &Bound, g: &Bound, len: f64, quadratic: bool) -> Bound {
 
 /// The Taylor bound of the whole field minus iso: per group, then the max
 /// of groups (the paper's mixed methods on a max scene, Table 3).
-pub fn field_taylor(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order) -> Bound {
-    max_of_groups(field, t1 - t0, order == Order::Quadratic, |g| group_taylor(g, o, u, t0, t1, order))
+pub fn field_taylor(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order, extension: bool) -> Bound {
+    max_of_groups(field, t1 - t0, order == Order::Quadratic, |g| group_taylor(g, o, u, t0, t1, order, extension))
 }
 
 /// `f = max over groups - iso` from each group's bound: the bottom-up max
@@ -378,8 +399,8 @@ pub fn field_linear(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64) -> Boun
 /// segment, revised affine arithmetic). `quad`: see [`QuadSettings`].
 pub fn field_bound(field: &Field, method: Method, quad: QuadSettings, o: DVec3, u: DVec3, t0: f64, t1: f64) -> Option<Bound> {
     Some(match method {
-        Method::LinearTaylor => field_taylor(field, o, u, t0, t1, Order::Linear),
-        Method::QuadraticTaylor => field_taylor(field, o, u, t0, t1, Order::Quadratic),
+        Method::LinearTaylor => field_taylor(field, o, u, t0, t1, Order::Linear, quad.extension),
+        Method::QuadraticTaylor => field_taylor(field, o, u, t0, t1, Order::Quadratic, quad.extension),
         Method::Linear | Method::LinearBisection => field_linear(field, o, u, t0, t1),
         Method::Quadratic | Method::QuadraticRelaxedT0 | Method::QuadraticRelaxedMax => {
             let exp_upper = method.exp_upper().expect("a bottom-up quadratic method");

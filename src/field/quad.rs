@@ -70,7 +70,9 @@ pub struct QuadSettings {
     /// Compact kernels: the bound of the part of the interval inside the
     /// support, extended to the whole interval by moving its control points
     /// (Section 6.2.1, Figure 9). Off: `max(Q, 0)³` built on the whole
-    /// interval with the bottom-up maximum (Appendix C).
+    /// interval with the bottom-up maximum (Appendix C). The Taylor methods
+    /// use the same switch for a support entered after t0
+    /// (`bounds::entering_taylor`).
     pub extension: bool,
     pub validity: ValidityScope,
 }
