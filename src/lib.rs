@@ -8,6 +8,7 @@
 //! images and statistics ([`output`]). [`field`] is the f64 reference of the
 //! same maths, the oracle of the tests and benchmarks.
 
+pub mod batch;
 pub mod bench;
 pub mod field;
 pub mod gpu;

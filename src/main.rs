@@ -39,6 +39,34 @@ struct GpuArgs {
     validation: bool,
 }
 
+/// A sequence of frames: `-o` is then a pattern such as out/frame_####.png.
+#[derive(Args)]
+struct BatchArgs {
+    /// Render a sequence of frames, in Rust range syntax: 0..100 excludes
+    /// 100, 0..=99 includes 99. Each PNG is written whole or not at all;
+    /// Ctrl-C stops after the frame in flight.
+    #[arg(long, value_name = "RANGE")]
+    frames: Option<isomarch::batch::FrameRange>,
+    /// Frames per second: frame n is at scene time n / fps.
+    #[arg(long, default_value_t = 25.0, requires = "frames")]
+    fps: f64,
+    /// Render only shard I of N (from 0): the frames whose number modulo N
+    /// is I. Default: from SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN of
+    /// SLURM_ARRAY_TASK_COUNT, or JOB_COMPLETION_INDEX of --shard-count;
+    /// else every frame.
+    #[arg(long, value_name = "I/N", requires = "frames")]
+    shard: Option<String>,
+    /// The number of shards of a Kubernetes Indexed Job (its completions).
+    #[arg(long, value_name = "N", requires = "frames")]
+    shard_count: Option<u64>,
+    /// Keep frames already on disk (resume an interrupted batch).
+    #[arg(long, requires = "frames")]
+    skip_existing: bool,
+    /// Per-frame statistics, appended (default: frames.csv beside the frames).
+    #[arg(long, value_name = "CSV", requires = "frames")]
+    csv: Option<PathBuf>,
+}
+
 #[derive(Args)]
 struct MarchArgs {
     /// Marcher: sphere, segment, linear-taylor, quadratic-taylor, linear,
@@ -86,6 +114,8 @@ enum Command {
         /// Write statistics (steps, evaluations, GPU time) as JSON.
         #[arg(long, value_name = "JSON")]
         stats: Option<PathBuf>,
+        #[command(flatten)]
+        batch: BatchArgs,
         #[command(flatten)]
         march: MarchArgs,
         #[command(flatten)]
@@ -229,9 +259,52 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
-        Command::Render { scene, output, size, heatmap, steps_max, aov, aov_output, stats, march, gpu } => {
+        Command::Render { scene, output, size, heatmap, steps_max, aov, aov_output, stats, batch, march, gpu } => {
             let scene = load_scene(&scene, &march)?;
             let (width, height) = size.unwrap_or((scene.camera.width, scene.camera.height));
+            if let Some(range) = batch.frames {
+                if heatmap.is_some() || !aov.is_empty() || stats.is_some() {
+                    bail!("--frames writes shaded PNGs and a statistics CSV (--csv); --heatmap, --aov and --stats are for single frames");
+                }
+                if !(batch.fps.is_finite() && batch.fps > 0.0) {
+                    bail!("--fps must be positive, got {}", batch.fps);
+                }
+                let pattern = output.to_string_lossy().into_owned();
+                isomarch::batch::frame_path(&pattern, range.start)?;
+                let shard = isomarch::batch::Shard::resolve(batch.shard.as_deref(), batch.shard_count, |k| std::env::var(k).ok())?;
+                let csv = batch.csv.unwrap_or_else(|| {
+                    output.parent().filter(|p| !p.as_os_str().is_empty()).map_or_else(|| PathBuf::from("frames.csv"), |p| p.join("frames.csv"))
+                });
+                let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+                let flag = std::sync::Arc::clone(&stop);
+                ctrlc::set_handler(move || {
+                    if flag.swap(true, std::sync::atomic::Ordering::SeqCst) {
+                        // A second Ctrl-C: leave now. Files are renamed into
+                        // place whole, so none is half-written.
+                        std::process::exit(130);
+                    }
+                    eprintln!("\nstopping after the frame in flight (Ctrl-C again to quit now)");
+                })
+                .context("installing the Ctrl-C handler")?;
+                let (ctx, timeout) = open(&gpu)?;
+                let method = scene.marching.method;
+                let job = RenderJob::new(scene, method, (width, height), output.clone(), timeout);
+                let s = isomarch::batch::run(&ctx, &job, &pattern, range, batch.fps, shard, batch.skip_existing, &csv, &stop)?;
+                eprintln!(
+                    "{} frames rendered, {} kept from disk (shard {}/{}); statistics in {}",
+                    s.rendered,
+                    s.skipped,
+                    shard.index,
+                    shard.count,
+                    csv.display()
+                );
+                check_validation(&ctx)?;
+                if s.interrupted {
+                    eprintln!("interrupted: rerun with --skip-existing to render the rest");
+                    return Err(Interrupted.into());
+                }
+                return Ok(());
+            }
             let (ctx, timeout) = open(&gpu)?;
             let method = scene.marching.method;
             let job = RenderJob {
@@ -297,10 +370,16 @@ fn check_validation(ctx: &Context) -> Result<()> {
     bail!("{} Vulkan validation message(s)", messages.len())
 }
 
+/// A batch stopped by Ctrl-C (exit status 130, as shells expect).
+#[derive(Debug, thiserror::Error)]
+#[error("interrupted")]
+struct Interrupted;
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<Interrupted>().is_some() => ExitCode::from(130),
         Err(e) => {
             eprintln!("error: {e:#}");
             if e.downcast_ref::<GpuError>().is_some_and(|g| matches!(g, GpuError::DeadlineExceeded(_))) {

@@ -1,0 +1,252 @@
+//! Batch frames: frame ranges, output name patterns, and shards of a range
+//! for array jobs (SLURM, Kubernetes Indexed Jobs).
+
+use std::path::PathBuf;
+use std::str::FromStr;
+
+use anyhow::{Result, bail};
+
+/// Frames `start..end` (end excluded), parsed from Rust range syntax:
+/// `a..b` excludes b, `a..=b` includes it, a lone `n` is one frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameRange {
+    pub start: u64,
+    pub end: u64,
+}
+
+impl FromStr for FrameRange {
+    type Err = String;
+    fn from_str(s: &str) -> Result<FrameRange, String> {
+        let num = |v: &str| v.trim().parse::<u64>().map_err(|_| format!("expected a frame range such as 0..100 or 0..=99, got {s:?}"));
+        let (start, end) = if let Some((a, b)) = s.split_once("..=") {
+            (num(a)?, num(b)?.checked_add(1).ok_or_else(|| format!("frame range {s:?} is too large"))?)
+        } else if let Some((a, b)) = s.split_once("..") {
+            (num(a)?, num(b)?)
+        } else {
+            let n = num(s)?;
+            (n, n + 1)
+        };
+        if end <= start {
+            return Err(format!("frame range {s:?} is empty"));
+        }
+        Ok(FrameRange { start, end })
+    }
+}
+
+/// The output path of `frame`: the first run of `#` in `pattern` becomes
+/// the frame number, zero-padded to the run's length (`frame_####.png`).
+pub fn frame_path(pattern: &str, frame: u64) -> Result<PathBuf> {
+    let Some(at) = pattern.find('#') else {
+        bail!("-o {pattern:?} has no #### for the frame number (e.g. out/frame_####.png)");
+    };
+    let width = pattern[at..].chars().take_while(|&c| c == '#').count();
+    Ok(PathBuf::from(format!("{}{frame:0width$}{}", &pattern[..at], &pattern[at + width..])))
+}
+
+/// Shard `index` of `count`: the frames whose number modulo `count` is
+/// `index`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: u64,
+    pub count: u64,
+}
+
+impl Shard {
+    pub const ALL: Shard = Shard { index: 0, count: 1 };
+
+    fn new(index: u64, count: u64, what: &str) -> Result<Shard> {
+        if count == 0 || index >= count {
+            bail!("{what}: shard {index} of {count} does not exist (shards are 0 to count - 1)");
+        }
+        Ok(Shard { index, count })
+    }
+
+    pub fn contains(&self, frame: u64) -> bool {
+        frame % self.count == self.index
+    }
+
+    /// The shard from `--shard I/N` when given; otherwise from the
+    /// scheduler's environment: a SLURM array (`SLURM_ARRAY_TASK_ID -
+    /// SLURM_ARRAY_TASK_MIN` of `SLURM_ARRAY_TASK_COUNT`) or a Kubernetes
+    /// Indexed Job (`JOB_COMPLETION_INDEX` of `shard_count`); otherwise
+    /// every frame.
+    pub fn resolve(explicit: Option<&str>, shard_count: Option<u64>, env: impl Fn(&str) -> Option<String>) -> Result<Shard> {
+        let parse = |name: &str, v: &str| v.trim().parse::<u64>().map_err(|_| anyhow::anyhow!("{name}={v:?} is not a number"));
+        if let Some(s) = explicit {
+            let Some((i, n)) = s.split_once('/') else {
+                bail!("--shard {s:?}: expected I/N, e.g. 0/4");
+            };
+            return Shard::new(parse("--shard", i)?, parse("--shard", n)?, "--shard");
+        }
+        if let Some(id) = env("SLURM_ARRAY_TASK_ID") {
+            let id = parse("SLURM_ARRAY_TASK_ID", &id)?;
+            let min = env("SLURM_ARRAY_TASK_MIN").map(|v| parse("SLURM_ARRAY_TASK_MIN", &v)).transpose()?.unwrap_or(0);
+            let Some(count) = env("SLURM_ARRAY_TASK_COUNT") else {
+                bail!("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not");
+            };
+            let count = parse("SLURM_ARRAY_TASK_COUNT", &count)?;
+            let Some(index) = id.checked_sub(min) else {
+                bail!("SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}");
+            };
+            return Shard::new(index, count, "SLURM array");
+        }
+        if let Some(index) = env("JOB_COMPLETION_INDEX") {
+            let index = parse("JOB_COMPLETION_INDEX", &index)?;
+            let Some(count) = shard_count else {
+                bail!("JOB_COMPLETION_INDEX is set: give the job's completions as --shard-count N");
+            };
+            return Shard::new(index, count, "Kubernetes Indexed Job");
+        }
+        if shard_count.is_some() {
+            bail!("--shard-count needs JOB_COMPLETION_INDEX (a Kubernetes Indexed Job); otherwise use --shard I/N");
+        }
+        Ok(Shard::ALL)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_follow_rust_syntax() {
+        assert_eq!("0..100".parse(), Ok(FrameRange { start: 0, end: 100 }));
+        assert_eq!("5..=9".parse(), Ok(FrameRange { start: 5, end: 10 }));
+        assert_eq!("7".parse(), Ok(FrameRange { start: 7, end: 8 }));
+        assert!("3..3".parse::<FrameRange>().is_err());
+        assert!("a..b".parse::<FrameRange>().is_err());
+    }
+
+    #[test]
+    fn patterns_pad_the_frame_number() {
+        assert_eq!(frame_path("out/frame_####.png", 7).unwrap(), PathBuf::from("out/frame_0007.png"));
+        assert_eq!(frame_path("f#.png", 123).unwrap(), PathBuf::from("f123.png"));
+        assert!(frame_path("out/frame.png", 1).is_err());
+    }
+
+    #[test]
+    fn shards_partition_a_range() {
+        let env = |_: &str| None;
+        let shards: Vec<Shard> = (0..3).map(|i| Shard::resolve(Some(&format!("{i}/3")), None, env).unwrap()).collect();
+        for f in 0..100 {
+            assert_eq!(shards.iter().filter(|s| s.contains(f)).count(), 1, "frame {f}");
+        }
+        assert!(Shard::resolve(Some("3/3"), None, env).is_err());
+        assert_eq!(Shard::resolve(None, None, env).unwrap(), Shard::ALL);
+    }
+
+    #[test]
+    fn shards_come_from_the_scheduler() {
+        let slurm = |k: &str| match k {
+            "SLURM_ARRAY_TASK_ID" => Some("12".to_string()),
+            "SLURM_ARRAY_TASK_MIN" => Some("10".to_string()),
+            "SLURM_ARRAY_TASK_COUNT" => Some("4".to_string()),
+            _ => None,
+        };
+        assert_eq!(Shard::resolve(None, None, slurm).unwrap(), Shard { index: 2, count: 4 });
+        let k8s = |k: &str| (k == "JOB_COMPLETION_INDEX").then(|| "1".to_string());
+        assert_eq!(Shard::resolve(None, Some(5), k8s).unwrap(), Shard { index: 1, count: 5 });
+        assert!(Shard::resolve(None, None, k8s).is_err(), "Kubernetes needs --shard-count");
+        // An explicit shard wins over the environment.
+        assert_eq!(Shard::resolve(Some("0/2"), None, slurm).unwrap(), Shard { index: 0, count: 2 });
+    }
+}
+
+/// What a batch did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BatchSummary {
+    pub rendered: u64,
+    pub skipped: u64,
+    /// Stopped early on request (Ctrl-C); every file written is whole.
+    pub interrupted: bool,
+}
+
+/// Renders the frames of `range` in `shard` to `pattern` (see
+/// [`frame_path`]), each PNG written atomically, with a progress bar (frames
+/// done, frames per second, time left). Per-frame statistics are appended to
+/// `csv` as each frame lands. With `skip_existing`, frames already on disk
+/// are kept. `stop` is checked between frames: a requested stop ends the
+/// batch after the frame in flight is written.
+#[allow(clippy::too_many_arguments)]
+pub fn run(
+    ctx: &std::sync::Arc<crate::gpu::Context>,
+    job: &crate::render::offscreen::RenderJob,
+    pattern: &str,
+    range: FrameRange,
+    fps: f64,
+    shard: Shard,
+    skip_existing: bool,
+    csv: &std::path::Path,
+    stop: &std::sync::atomic::AtomicBool,
+) -> Result<BatchSummary> {
+    use std::io::Write;
+    use std::sync::atomic::Ordering;
+
+    use anyhow::Context as _;
+
+    use crate::output::{MarchStats, png_bytes, write_atomic};
+    use crate::render::Renderer;
+    use crate::render::rays::camera_rays;
+
+    let frames: Vec<u64> = (range.start..range.end).filter(|&f| shard.contains(f)).collect();
+    let mut summary = BatchSummary::default();
+    let todo: Vec<(u64, PathBuf)> = frames
+        .iter()
+        .map(|&f| Ok((f, frame_path(pattern, f)?)))
+        .collect::<Result<Vec<_>>>()?
+        .into_iter()
+        .filter(|(_, path)| {
+            let keep = !(skip_existing && path.exists());
+            summary.skipped += u64::from(!keep);
+            keep
+        })
+        .collect();
+    let new_csv = !csv.exists();
+    if let Some(dir) = csv.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let mut log = std::fs::OpenOptions::new().create(true).append(true).open(csv).with_context(|| format!("opening {}", csv.display()))?;
+    if new_csv {
+        writeln!(log, "frame,time_s,file,width,height,method,steps_per_ray,evals_per_ray,hit_rate,gpu_ms,wall_ms")?;
+    }
+    let bar = indicatif::ProgressBar::new(todo.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} frames ({per_sec}, {eta} left)")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar.set_message(format!("shard {}/{}", shard.index, shard.count));
+    let mut renderer = Renderer::new(ctx, &job.scene)?;
+    renderer.timeout = job.timeout;
+    let (rays, pixels) = camera_rays(&job.scene.camera, job.width, job.height, &job.scene.bounds);
+    for (frame, path) in todo {
+        if stop.load(Ordering::SeqCst) {
+            summary.interrupted = true;
+            break;
+        }
+        let started = std::time::Instant::now();
+        let out = renderer.march(job.method, &rays, |_| {})?;
+        let image = crate::output::Frame::from_results(job.width, job.height, &out.results, &pixels);
+        write_atomic(&path, &png_bytes(&image.shaded())?)?;
+        let stats = MarchStats::of(out.results.iter().zip(&pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| r), out.gpu_ns);
+        writeln!(
+            log,
+            "{frame},{:.6},{},{},{},{},{:.4},{:.2},{:.5},{},{:.1}",
+            frame as f64 / fps,
+            path.display(),
+            job.width,
+            job.height,
+            job.method,
+            stats.steps_per_ray,
+            stats.evals_per_ray,
+            stats.hit_rate,
+            stats.gpu_ms.map_or(String::new(), |ms| format!("{ms:.2}")),
+            started.elapsed().as_secs_f64() * 1e3
+        )?;
+        log.flush()?;
+        summary.rendered += 1;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok(summary)
+}

@@ -1,0 +1,127 @@
+//! Batch frames through the binary: shards cover a range exactly once, the
+//! scheduler's environment picks the shard, and a batch stopped by Ctrl-C
+//! leaves only whole frames and resumes with --skip-existing.
+
+mod common;
+
+use std::collections::BTreeSet;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::*;
+
+/// The frame numbers listed in a batch's statistics CSV.
+fn csv_frames(csv: &Path) -> Vec<u64> {
+    let text = std::fs::read_to_string(csv).unwrap_or_else(|e| panic!("{}: {e}", csv.display()));
+    let mut lines = text.lines();
+    assert!(lines.next().unwrap().starts_with("frame,time_s,"), "header");
+    lines.map(|l| l.split(',').next().unwrap().parse().unwrap()).collect()
+}
+
+fn render_batch(dir: &Path, extra: &[&str], envs: &[(&str, &str)]) -> std::process::Output {
+    Command::new(bin())
+        .args(["render", "scenes/default.ron", "--size", "32x32", "-o"])
+        .arg(dir.join("f_####.png"))
+        .args(extra)
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("JOB_COMPLETION_INDEX")
+        .envs(envs.iter().copied())
+        .current_dir(repo_root())
+        .output()
+        .unwrap()
+}
+
+/// Every file in `dir` that a frame pattern names decodes as a whole PNG,
+/// and no temporary file is left.
+fn assert_only_whole_frames(dir: &Path) -> BTreeSet<String> {
+    let mut names = BTreeSet::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let name = entry.unwrap().file_name().to_string_lossy().into_owned();
+        assert!(!name.ends_with(".tmp"), "temporary file {name} left behind");
+        if name.ends_with(".png") {
+            image::open(dir.join(&name)).unwrap_or_else(|e| panic!("{name} is not a whole PNG: {e}"));
+            names.insert(name);
+        }
+    }
+    names
+}
+
+#[test]
+fn two_shards_cover_a_frame_range_exactly_once() {
+    let dir = scratch("shards");
+    let mut seen = Vec::new();
+    for shard in ["0/2", "1/2"] {
+        let csv = dir.join(format!("shard{}.csv", &shard[..1]));
+        let run = render_batch(&dir, &["--frames", "0..=6", "--shard", shard, "--csv", csv.to_str().unwrap()], &[]);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        seen.extend(csv_frames(&csv));
+    }
+    seen.sort();
+    assert_eq!(seen, (0..=6).collect::<Vec<u64>>(), "each frame rendered exactly once");
+    let names = assert_only_whole_frames(&dir);
+    assert_eq!(names.len(), 7);
+    assert!(names.contains("f_0000.png") && names.contains("f_0006.png"));
+}
+
+#[test]
+fn the_shard_comes_from_slurm_or_kubernetes() {
+    let dir = scratch("scheduler");
+    let slurm = [("SLURM_ARRAY_TASK_ID", "5"), ("SLURM_ARRAY_TASK_MIN", "4"), ("SLURM_ARRAY_TASK_COUNT", "3")];
+    let csv = dir.join("slurm.csv");
+    let run = render_batch(&dir, &["--frames", "0..9", "--csv", csv.to_str().unwrap()], &slurm);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert_eq!(csv_frames(&csv), vec![1, 4, 7], "SLURM task 5 of 4..=6 is shard 1 of 3");
+    let csv = dir.join("k8s.csv");
+    let run = render_batch(&dir, &["--frames", "0..9", "--shard-count", "4", "--csv", csv.to_str().unwrap()], &[("JOB_COMPLETION_INDEX", "2")]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert_eq!(csv_frames(&csv), vec![2, 6]);
+    let run = render_batch(&dir, &["--frames", "0..9"], &[("JOB_COMPLETION_INDEX", "2")]);
+    assert!(!run.status.success(), "an Indexed Job without --shard-count must be refused");
+    assert!(String::from_utf8_lossy(&run.stderr).contains("--shard-count"));
+}
+
+#[test]
+fn an_interrupted_batch_resumes_with_skip_existing() {
+    let dir = scratch("resume");
+    let frames = 150;
+    let range = format!("0..{frames}");
+    // Large enough frames that the batch is still running when stopped.
+    let mut child = Command::new(bin())
+        .args(["render", "scenes/fig10.ron", "--size", "96x96", "--frames", &range, "-o"])
+        .arg(dir.join("f_####.png"))
+        .current_dir(repo_root())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while !dir.join("f_0001.png").exists() {
+        assert!(start.elapsed() < Duration::from_secs(120), "no frame after two minutes");
+        assert!(child.try_wait().unwrap().is_none(), "the batch ended before it could be interrupted");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // SAFETY: kill(2) on our own child's pid.
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "Ctrl-C ends the batch with status 130");
+    let before = assert_only_whole_frames(&dir);
+    assert!(before.len() < frames, "the interruption came too late to test anything ({} frames)", before.len());
+    let mtimes: Vec<_> = before.iter().map(|n| std::fs::metadata(dir.join(n)).unwrap().modified().unwrap()).collect();
+
+    let run = Command::new(bin())
+        .args(["render", "scenes/fig10.ron", "--size", "96x96", "--frames", &range, "--skip-existing", "-o"])
+        .arg(dir.join("f_####.png"))
+        .current_dir(repo_root())
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let after = assert_only_whole_frames(&dir);
+    assert_eq!(after.len(), frames, "every frame is on disk after the resume");
+    for (name, mtime) in before.iter().zip(mtimes) {
+        assert_eq!(std::fs::metadata(dir.join(name)).unwrap().modified().unwrap(), mtime, "{name} was rendered again");
+    }
+    // The CSV holds each frame once: the interrupted run's and the resumed run's rows.
+    let mut listed = csv_frames(&dir.join("frames.csv"));
+    listed.sort();
+    assert_eq!(listed, (0..frames as u64).collect::<Vec<_>>());
+}
