@@ -218,13 +218,20 @@ pub fn run(
     bar.set_message(format!("shard {}/{}", shard.index, shard.count));
     let mut renderer = Renderer::new(ctx, &job.scene)?;
     renderer.timeout = job.timeout;
-    let (rays, pixels) = camera_rays(&job.scene.camera, job.width, job.height, &job.scene.bounds);
+    let animated = !job.scene.animation.is_static();
+    let (mut rays, mut pixels) = camera_rays(&job.scene.camera, job.width, job.height, &job.scene.bounds);
     for (frame, path) in todo {
         if stop.load(Ordering::SeqCst) {
             summary.interrupted = true;
             break;
         }
         let started = std::time::Instant::now();
+        if animated {
+            // The scene at this frame's time: primitives, camera, bounds.
+            let posed = job.scene.at_time(frame as f64 / fps);
+            renderer.set_scene(&posed)?;
+            (rays, pixels) = camera_rays(&posed.camera, job.width, job.height, &posed.bounds);
+        }
         let out = renderer.march(job.method, &rays, |_| {})?;
         let image = crate::output::Frame::from_results(job.width, job.height, &out.results, &pixels);
         write_atomic(&path, &png_bytes(&image.shaded())?)?;

@@ -47,6 +47,9 @@ struct BatchArgs {
     /// Ctrl-C stops after the frame in flight.
     #[arg(long, value_name = "RANGE")]
     frames: Option<isomarch::batch::FrameRange>,
+    /// Scene time in seconds of a single frame (animated scenes).
+    #[arg(long, default_value_t = 0.0, conflicts_with = "frames")]
+    time: f64,
     /// Frames per second: frame n is at scene time n / fps.
     #[arg(long, default_value_t = 25.0, requires = "frames")]
     fps: f64,
@@ -305,6 +308,10 @@ fn run(cli: Cli) -> Result<()> {
                 }
                 return Ok(());
             }
+            if !batch.time.is_finite() {
+                bail!("--time must be a finite number of seconds, got {}", batch.time);
+            }
+            let scene = scene.at_time(batch.time);
             let (ctx, timeout) = open(&gpu)?;
             let method = scene.marching.method;
             let job = RenderJob {
@@ -335,7 +342,8 @@ fn run(cli: Cli) -> Result<()> {
             if rays == 0 {
                 bail!("--rays must be at least 1");
             }
-            let scene = load_scene(&scene, &march)?;
+            // An animated scene is measured as posed at time 0.
+            let scene = load_scene(&scene, &march)?.at_time(0.0);
             let (ctx, timeout) = open(&gpu)?;
             let variants = bench_variants(&scene, &cull, extension.as_deref(), validity.as_deref());
             let report = bench::run(&ctx, &scene, &methods, &variants, rays, seed, timeout)?;

@@ -125,3 +125,24 @@ fn an_interrupted_batch_resumes_with_skip_existing() {
     listed.sort();
     assert_eq!(listed, (0..frames as u64).collect::<Vec<_>>());
 }
+
+#[test]
+fn animated_frames_move_and_static_frames_do_not() {
+    let dir = scratch("animated");
+    // 0..=25 in shard 0 of 25: frames 0 and 25, one second apart.
+    let frames = |scene: &str, sub: &str| {
+        let out = dir.join(sub);
+        let run = Command::new(bin())
+            .args(["render", scene, "--size", "48x40", "--frames", "0..=25", "--shard", "0/25", "-o"])
+            .arg(out.join("f_##.png"))
+            .current_dir(repo_root())
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        let a = image::open(out.join("f_00.png")).unwrap().to_rgb8();
+        let b = image::open(out.join("f_25.png")).unwrap().to_rgb8();
+        a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+    };
+    assert!(frames("scenes/fig16.ron", "moving") > 20, "fig16's blobs move between t = 0 s and t = 1 s");
+    assert_eq!(frames("scenes/default.ron", "still"), 0, "a scene without motion renders the same frame");
+}

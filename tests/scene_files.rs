@@ -103,3 +103,42 @@ fn fig1_and_fig17_match_their_csvs_and_are_transparent() {
         assert_eq!((s.marching.min_step, s.marching.max_steps), (0.1, 1000), "BENCHMARKS.md protocol");
     }
 }
+
+/// fig16: the CSV's nine blobs in one sum group with the ground slab, each
+/// bobbing as y = 2.5 + 0.8 sin(2π t / 4 s + phase) with its phase from
+/// fig16_phases.csv (BENCHMARKS.md).
+#[test]
+fn fig16_matches_its_csvs_and_moves_as_specified() {
+    let s = Scene::load(&repo_root().join("scenes/fig16.ron")).unwrap();
+    let rows = csv_rows("fig16");
+    let phases: Vec<f64> = std::fs::read_to_string(shared_dir().join("benchmarks/fig16_phases.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| l.split(',').nth(1).unwrap().trim().parse().unwrap())
+        .collect();
+    assert_eq!(s.groups.len(), 1);
+    assert_eq!(s.primitive_count(), rows.len() + 1, "nine blobs and the ground");
+    assert!(matches!(s.groups[0].last(), Some(Primitive::Plane { normal, offset, radius, .. }) if *normal == DVec3::Y && *offset == 0.0 && *radius == 1.0));
+    for t in [0.0, 0.37, 1.0, 2.5, 3.99] {
+        let posed = s.at_time(t);
+        for (i, (_, c, radius)) in rows.iter().enumerate() {
+            let Primitive::Point { center, kernel: Kernel::Compact { radius: r, .. } } = posed.groups[0][i] else {
+                panic!("primitive {i} is not a compact point");
+            };
+            let y = 2.5 + 0.8 * (std::f64::consts::TAU * t / 4.0 + phases[i]).sin();
+            assert!((center - DVec3::new(c.x, y, c.z)).length() < 1e-9, "blob {i} at t = {t}: {center}");
+            assert_eq!(r, *radius);
+        }
+        // The fixed bounds hold every blob's support at every time.
+        assert!(posed.support_bounds().min.cmpge(s.bounds.min).all() && posed.support_bounds().max.cmple(s.bounds.max).all());
+    }
+    assert_eq!((s.bounds.min.x, s.bounds.max.x, s.bounds.min.z, s.bounds.max.z), (-12.0, 12.0, -12.0, 12.0), "slab clipped to |x|, |z| <= 12");
+    let centres = |t: f64| -> Vec<DVec3> {
+        s.at_time(t).primitives().filter_map(|p| if let Primitive::Point { center, .. } = p { Some(*center) } else { None }).collect()
+    };
+    for (a, b) in centres(0.0).iter().zip(centres(4.0)) {
+        assert!((*a - b).length() < 1e-9, "a 4-second loop");
+    }
+}

@@ -119,3 +119,27 @@ fn the_binary_fails_cleanly_and_writes_nothing() {
     let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.path().extension().is_some_and(|x| x != "ron")).collect();
     assert!(leftovers.is_empty(), "left files behind: {leftovers:?}");
 }
+
+#[test]
+fn bad_motion_and_transparency_are_rejected() {
+    let moving = |motion: &str| GOOD.replace("kernel: Compact(radius: 2.0))", &format!("kernel: Compact(radius: 2.0), motion: Some({motion}))"));
+    let e = error_of(&moving("Sine(axis: (0.0, 1.0, 0.0), amplitude: 1.0, period: 0.0)"));
+    assert_mentions(&e, &["bad.ron", "groups[0].primitives[0].motion.period", "positive"]);
+    let e = error_of(&moving("Keyframes([(1.0, (0.0, 0.0, 0.0)), (0.5, (1.0, 0.0, 0.0))])"));
+    assert_mentions(&e, &["bad.ron", "groups[0].primitives[0].motion[1]", "increase"]);
+    let e = error_of(&moving("Keyframes([])"));
+    assert_mentions(&e, &["bad.ron", "motion", "at least one"]);
+    let e = error_of(&GOOD.replace("resolution: (16, 16))", "resolution: (16, 16), path: Some(Orbit(period: -2.0)))"));
+    assert_mentions(&e, &["bad.ron", "camera.path.period", "positive"]);
+    let e = error_of(&GOOD.replace("iso: 0.5,", "iso: 0.5, transparency: Some((opacity: 1.5)),"));
+    assert_mentions(&e, &["bad.ron", "transparency.opacity", "[0, 1]"]);
+    // And a good one poses: a keyframed blob moves, an orbiting camera turns.
+    let s = Scene::parse(
+        &moving("Keyframes([(0.0, (0.0, 0.0, 0.0)), (2.0, (2.0, 0.0, 0.0))])").replace("resolution: (16, 16))", "resolution: (16, 16), path: Some(Orbit(period: 8.0)))"),
+        "good.ron",
+    )
+    .unwrap();
+    let posed = s.at_time(1.0);
+    assert!(matches!(posed.groups[0][0], isomarch::scene::Primitive::Point { center, .. } if center == glam::DVec3::new(1.0, 0.0, 0.0)));
+    assert!((posed.camera.eye - s.camera.eye).length() > 1.0 && (posed.camera.eye.length() - s.camera.eye.length()).abs() < 1e-9);
+}

@@ -266,6 +266,22 @@ impl Renderer {
         &self.scene
     }
 
+    /// Replaces the scene by the same scene posed at another time (its
+    /// primitives moved, its camera and bounds changed): only the primitive
+    /// data is uploaded again, and the pipelines are kept.
+    pub fn set_scene(&mut self, scene: &Scene) -> Result<()> {
+        let same_shape = scene.groups.len() == self.scene.groups.len()
+            && scene.groups.iter().zip(&self.scene.groups).all(|(a, b)| {
+                a.len() == b.len() && a.iter().zip(b).all(|(p, q)| std::mem::discriminant(p) == std::mem::discriminant(q))
+            });
+        if !same_shape {
+            bail!("set_scene takes the same scene at another time; {} has different primitives", scene.source);
+        }
+        self.prims.write(0, &gpu_primitives(scene))?;
+        self.scene = scene.clone();
+        Ok(())
+    }
+
     fn pipeline(&mut self, entry: EntryPoint, method: Method) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
         let key = PipelineKey { entry, method, shade: self.shade, cull: self.cull, extension: self.quad.extension, transparent: self.transparent };
         if !self.pipelines.contains_key(&key) {

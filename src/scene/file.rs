@@ -65,6 +65,9 @@ pub struct CameraFile {
     /// Image width and height in pixels.
     #[serde(default = "default_resolution")]
     pub resolution: (u32, u32),
+    /// How the eye moves over scene time; absent: it stays.
+    #[serde(default)]
+    pub path: Option<CameraPathFile>,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -126,8 +129,14 @@ pub struct GroupFile {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub enum PrimitiveFile {
-    /// A point primitive: the kernel of the distance to `center`.
-    Point { center: [f64; 3], kernel: KernelFile },
+    /// A point primitive: the kernel of the distance to `center`, which
+    /// may move over time.
+    Point {
+        center: [f64; 3],
+        kernel: KernelFile,
+        #[serde(default)]
+        motion: Option<MotionFile>,
+    },
     /// The compact kernel of the unsigned distance to the plane
     /// `normal · p = offset`: a slab of half-width `radius`.
     Plane {
@@ -137,6 +146,32 @@ pub enum PrimitiveFile {
         #[serde(default)]
         weight: Option<f64>,
     },
+}
+
+/// A path of offsets added to a point's centre over scene time (seconds).
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub enum MotionFile {
+    /// `axis · amplitude · sin(2π t / period + phase)`.
+    Sine {
+        axis: [f64; 3],
+        amplitude: f64,
+        period: f64,
+        #[serde(default)]
+        phase: f64,
+    },
+    /// `(time, offset)` keys, linear in between, held at both ends.
+    Keyframes(Vec<(f64, [f64; 3])>),
+}
+
+/// The camera eye's path over scene time (the target stays).
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub enum CameraPathFile {
+    /// One turn about the vertical axis through the target per `period` seconds.
+    Orbit { period: f64 },
+    /// `(time, eye)` keys, linear in between, held at both ends.
+    Keyframes(Vec<(f64, [f64; 3])>),
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

@@ -9,6 +9,10 @@ use glam::DVec3;
 
 pub use file::SceneFile;
 
+pub mod animation;
+
+pub use animation::{Animation, CameraPath, Motion};
+
 use crate::field::quad::{QuadSettings, ValidityScope};
 use crate::method::Method;
 
@@ -143,6 +147,10 @@ pub struct Scene {
     pub groups: Vec<Vec<Primitive>>,
     /// Where rays are marched: explicit, or the union of the supports.
     pub bounds: Aabb,
+    /// The file fixed `bounds` (else they follow the posed supports).
+    pub bounds_explicit: bool,
+    /// What moves over scene time.
+    pub animation: Animation,
 }
 
 impl Scene {
@@ -234,6 +242,32 @@ impl Checker<'_> {
     fn weight(&self, field: &str, w: Option<f64>, default: f64) -> Result<f64, SceneError> {
         w.map_or(Ok(default), |w| self.positive(field, w))
     }
+    /// Keyframes: at least one, finite, in increasing time.
+    fn keyframes(&self, field: &str, keys: &[(f64, [f64; 3])]) -> Result<Vec<(f64, DVec3)>, SceneError> {
+        if keys.is_empty() {
+            return Err(self.err(field, "needs at least one (time, position) key"));
+        }
+        let mut out = Vec::with_capacity(keys.len());
+        for (i, (t, p)) in keys.iter().enumerate() {
+            let t = self.finite(&format!("{field}[{i}].0"), *t)?;
+            if out.last().is_some_and(|&(prev, _)| t <= prev) {
+                return Err(self.err(format!("{field}[{i}]"), format!("key times must increase, got {t} after {}", out[i - 1].0)));
+            }
+            out.push((t, self.vec3(&format!("{field}[{i}].1"), *p)?));
+        }
+        Ok(out)
+    }
+    fn motion(&self, field: &str, m: &file::MotionFile) -> Result<Motion, SceneError> {
+        Ok(match m {
+            file::MotionFile::Sine { axis, amplitude, period, phase } => Motion::Sine {
+                axis: self.unit(&format!("{field}.axis"), *axis)?,
+                amplitude: self.finite(&format!("{field}.amplitude"), *amplitude)?,
+                period: self.positive(&format!("{field}.period"), *period)?,
+                phase: self.finite(&format!("{field}.phase"), *phase)?,
+            },
+            file::MotionFile::Keyframes(keys) => Motion::Keyframes(self.keyframes(field, keys)?),
+        })
+    }
 }
 
 /// Checks every value of a parsed file and resolves defaults.
@@ -312,6 +346,13 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         return Err(c.err("groups", "the scene has no groups; give at least one group with one primitive"));
     }
     let mut groups = Vec::new();
+    let mut animation = Animation::default();
+    if let Some(path) = &f.camera.path {
+        animation.camera = Some(match path {
+            file::CameraPathFile::Orbit { period } => CameraPath::Orbit { period: c.positive("camera.path.period", *period)? },
+            file::CameraPathFile::Keyframes(keys) => CameraPath::Keyframes(c.keyframes("camera.path", keys)?),
+        });
+    }
     let mut support = Aabb::empty();
     let mut has_plane = false;
     for (gi, g) in f.groups.iter().enumerate() {
@@ -322,8 +363,11 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         for (pi, p) in g.primitives.iter().enumerate() {
             let at = format!("groups[{gi}].primitives[{pi}]");
             let prim = match p {
-                file::PrimitiveFile::Point { center, kernel } => {
+                file::PrimitiveFile::Point { center, kernel, motion } => {
                     let center = c.vec3(&format!("{at}.center"), *center)?;
+                    if let Some(m) = motion {
+                        animation.primitives.push(((gi, pi), c.motion(&format!("{at}.motion"), m)?));
+                    }
                     let kernel = match kernel {
                         file::KernelFile::Compact { radius, weight } => {
                             let radius = c.positive(&format!("{at}.kernel.radius"), *radius)?;
@@ -388,5 +432,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         marching: Marching { method, min_step, max_steps: f.marching.max_steps, growth, quad: QuadSettings { extension: f.marching.extension, validity } },
         groups,
         bounds,
+        bounds_explicit: f.bounds.is_some(),
+        animation,
     })
 }

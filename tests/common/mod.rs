@@ -88,6 +88,8 @@ pub fn scene(groups: Vec<Vec<Primitive>>, iso: f64, method: Method, min_step: f6
         marching: Marching { method, min_step, max_steps: 100_000, growth: None, quad: Default::default() },
         groups,
         bounds,
+        bounds_explicit: false,
+        animation: Default::default(),
     };
     s.marching.min_step = min_step;
     s
