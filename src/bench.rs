@@ -59,6 +59,8 @@ pub const VALIDITY_SAMPLE_RAYS: usize = 8192;
 pub struct Variant {
     pub cull: bool,
     pub quad: QuadSettings,
+    /// Pipelines not specialised to the scene's kernels and operators.
+    pub generic: bool,
 }
 
 impl Variant {
@@ -69,6 +71,7 @@ impl Variant {
         let gaussian = |p: &Primitive| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. });
         let (gaussians, compacts) = (scene.primitives().any(gaussian), scene.primitives().any(|p| !gaussian(p)));
         self.cull != other.cull
+            || self.generic != other.generic
             || (extends && compacts && self.quad.extension != other.quad.extension)
             || (method == Method::Quadratic && gaussians && self.quad.validity != other.quad.validity)
     }
@@ -84,6 +87,9 @@ impl Variant {
         }
         if self.quad.validity != default.quad.validity {
             parts.push(format!("validity: {}", self.quad.validity.name()));
+        }
+        if self.generic != default.generic {
+            parts.push(if self.generic { "generic" } else { "specialised" }.to_string());
         }
         if parts.is_empty() { String::new() } else { format!(" ({})", parts.join(", ")) }
     }
@@ -227,7 +233,7 @@ pub fn run(
     let mut renderer = Renderer::new(ctx, scene)?;
     renderer.timeout = timeout;
     renderer.shade = false;
-    let default = variants.first().copied().unwrap_or(Variant { cull: true, quad: scene.marching.quad });
+    let default = variants.first().copied().unwrap_or(Variant { cull: true, quad: scene.marching.quad, generic: false });
     let mut reports: Vec<MethodReport> = Vec::new();
     for &method in methods {
         let mut done: Vec<Variant> = Vec::new();
@@ -270,6 +276,7 @@ fn run_one(
         let label = format!("{method}{}", variant.suffix(&default));
         renderer.cull = variant.cull;
         renderer.quad = variant.quad;
+        renderer.generic = variant.generic;
         let bar = progress(rays as u64, &label);
         let out = renderer.march(method, ray_set, |done| bar.set_position(done as u64))?;
         bar.finish_and_clear();

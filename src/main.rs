@@ -156,6 +156,11 @@ enum Command {
         /// (default: the scene's marching.validity).
         #[arg(long, value_parser = ["significant", "every", "both"])]
         validity: Option<String>,
+        /// Also run each method with generic pipelines (every primitive kind
+        /// and the max of groups compiled in) to measure what specialising
+        /// them to the scene buys; rows marked "generic".
+        #[arg(long)]
+        generic: bool,
         /// Also render the scene's camera view with each method and write
         /// their step heatmaps side by side on one scale (like Figure 10).
         #[arg(long, value_name = "PNG")]
@@ -177,7 +182,7 @@ enum Command {
 /// settings, culling on unless `--cull off`), then each `both` adds the
 /// other value of its setting to every variant so far.
 fn bench_variants(scene: &Scene, cull: &str, extension: Option<&str>, validity: Option<&str>) -> Vec<bench::Variant> {
-    let mut base = bench::Variant { cull: cull != "off", quad: scene.marching.quad };
+    let mut base = bench::Variant { cull: cull != "off", quad: scene.marching.quad, generic: false };
     match extension {
         Some("on") => base.quad.extension = true,
         Some("off") => base.quad.extension = false,
@@ -301,6 +306,7 @@ fn run(cli: Cli) -> Result<()> {
                     shard.count,
                     csv.display()
                 );
+                save_cache(&ctx);
                 check_validation(&ctx)?;
                 if s.interrupted {
                     eprintln!("interrupted: rerun with --skip-existing to render the rest");
@@ -335,9 +341,10 @@ fn run(cli: Cli) -> Result<()> {
                 s.march.hit_rate,
                 s.march.gpu_ms.map_or(String::new(), |ms| format!(", GPU {ms:.1} ms"))
             );
+            save_cache(&ctx);
             check_validation(&ctx)
         }
-        Command::Bench { scene, methods, rays, seed, json, cull, extension, validity, heatmap_grid, size, steps_max, march, gpu } => {
+        Command::Bench { scene, methods, rays, seed, json, cull, extension, validity, generic, heatmap_grid, size, steps_max, march, gpu } => {
             let methods = parse_list(&methods).map_err(anyhow::Error::msg).context("--methods")?;
             if rays == 0 {
                 bail!("--rays must be at least 1");
@@ -345,7 +352,11 @@ fn run(cli: Cli) -> Result<()> {
             // An animated scene is measured as posed at time 0.
             let scene = load_scene(&scene, &march)?.at_time(0.0);
             let (ctx, timeout) = open(&gpu)?;
-            let variants = bench_variants(&scene, &cull, extension.as_deref(), validity.as_deref());
+            let mut variants = bench_variants(&scene, &cull, extension.as_deref(), validity.as_deref());
+            if generic {
+                let more: Vec<_> = variants.iter().map(|&v| bench::Variant { generic: true, ..v }).collect();
+                variants.extend(more);
+            }
             let report = bench::run(&ctx, &scene, &methods, &variants, rays, seed, timeout)?;
             print!("{}", bench::markdown(&report));
             if let Some(path) = json {
@@ -361,6 +372,7 @@ fn run(cli: Cli) -> Result<()> {
                 let grid = output::heatmap_grid(size.0, size.1, &panels, Some(steps_max));
                 write_atomic(&path, &png_bytes(&grid)?)?;
             }
+            save_cache(&ctx);
             check_validation(&ctx)
         }
     }
@@ -382,6 +394,14 @@ fn check_validation(ctx: &Context) -> Result<()> {
 #[derive(Debug, thiserror::Error)]
 #[error("interrupted")]
 struct Interrupted;
+
+/// Keeps compiled pipelines for the next run where the driver allows it; a
+/// failure costs only that, so it is a warning.
+fn save_cache(ctx: &Context) {
+    if let Err(e) = ctx.save_pipeline_cache() {
+        eprintln!("warning: pipeline cache not saved: {e:#}");
+    }
+}
 
 fn main() -> ExitCode {
     let cli = Cli::parse();

@@ -245,3 +245,27 @@ fn bisection_methods_refuse_transparent_marching() {
         assert!(err.to_string().contains("opaque"), "{err}");
     }
 }
+
+/// Specialisation only removes code a scene cannot reach: generic pipelines
+/// (every kind and the max of groups compiled in) give the same results.
+#[test]
+fn generic_pipelines_give_the_specialised_results() {
+    let ctx = gpu();
+    for name in ["fig10.ron", "default.ron"] {
+        let s = Scene::load(&repo_root().join("scenes").join(name)).unwrap();
+        let rays = protocol_rays(&s.bounds, 2048, 3);
+        let mut renderer = Renderer::new(&ctx, &s).unwrap();
+        renderer.shade = false;
+        for method in [Method::Segment, Method::QuadraticTaylor, Method::Quadratic] {
+            renderer.generic = false;
+            let specialised = renderer.march(method, &rays, |_| {}).unwrap().results;
+            renderer.generic = true;
+            let generic = renderer.march(method, &rays, |_| {}).unwrap().results;
+            for (a, b) in specialised.iter().zip(&generic) {
+                assert_eq!(a.counts, b.counts, "{name} {method}: steps, evaluations or flags differ");
+                assert_eq!(a.hit[3], b.hit[3], "{name} {method}: hit distance differs");
+            }
+        }
+    }
+    assert_no_validation(&ctx);
+}

@@ -59,6 +59,10 @@ pub struct Context {
     // Boxed so its address, given to the debug callback, never moves.
     _callback_sink: Option<Box<Arc<Mutex<Vec<String>>>>>,
     hung: AtomicBool,
+    /// Pipelines are created through this cache, loaded from and saved to
+    /// `cache_path` (`~/.cache/isomarch/`, one file per device and driver).
+    pub pipeline_cache: vk::PipelineCache,
+    cache_path: Option<std::path::PathBuf>,
 }
 
 fn validation_requested(options: &ContextOptions) -> bool {
@@ -255,6 +259,18 @@ impl Context {
             allocation_sizes: Default::default(),
         })
         .context("creating the GPU memory allocator")?;
+        // SAFETY: enumerated from this instance.
+        let props = unsafe { instance.get_physical_device_properties(physical_device) };
+        let cache_path = pipeline_cache_path(&props);
+        // Vulkan drivers check the data's header and ignore data from
+        // another device or driver version; a missing or unreadable file
+        // just starts an empty cache.
+        let initial = cache_path.as_deref().and_then(|p| std::fs::read(p).ok()).unwrap_or_default();
+        let cache_info = vk::PipelineCacheCreateInfo::default().initial_data(&initial);
+        // SAFETY: valid device; the data is only a hint the driver validates.
+        let pipeline_cache = unsafe { device.create_pipeline_cache(&cache_info, None) }
+            .or_else(|_| unsafe { device.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) })
+            .context("creating the pipeline cache")?;
 
         Ok(Arc::new(Context {
             entry: ManuallyDrop::new(entry),
@@ -269,7 +285,24 @@ impl Context {
             messages,
             _callback_sink: callback_sink,
             hung: AtomicBool::new(false),
+            pipeline_cache,
+            cache_path,
         }))
+    }
+
+    /// Writes the pipeline cache to disk (atomically) so that the next run
+    /// creates its pipelines faster where the driver keeps compiled code;
+    /// returns the bytes written (0: nothing to keep, or no cache folder).
+    pub fn save_pipeline_cache(&self) -> Result<usize> {
+        let Some(path) = &self.cache_path else { return Ok(0) };
+        // SAFETY: a cache of this device.
+        let data = unsafe { self.device.get_pipeline_cache_data(self.pipeline_cache) }.context("reading the pipeline cache")?;
+        // A bare header (32 bytes, lavapipe's case) holds nothing to keep.
+        if data.len() <= 32 {
+            return Ok(0);
+        }
+        crate::output::write_atomic(path, &data)?;
+        Ok(data.len())
     }
 
     /// Whether the validation layer is active.
@@ -300,6 +333,16 @@ impl Context {
     }
 }
 
+/// Where the pipeline cache of this device and driver lives:
+/// `$XDG_CACHE_HOME/isomarch` or `~/.cache/isomarch`; `None` without a home.
+fn pipeline_cache_path(props: &vk::PhysicalDeviceProperties) -> Option<std::path::PathBuf> {
+    let base = std::env::var_os("XDG_CACHE_HOME")
+        .map(std::path::PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| std::path::PathBuf::from(h).join(".cache")))?;
+    let uuid: String = props.pipeline_cache_uuid.iter().map(|b| format!("{b:02x}")).collect();
+    Some(base.join("isomarch").join(format!("pipelines-{:04x}-{:04x}-{uuid}.bin", props.vendor_id, props.device_id)))
+}
+
 impl Drop for Context {
     fn drop(&mut self) {
         if self.is_hung() {
@@ -318,6 +361,7 @@ impl Drop for Context {
             if let Ok(mut guard) = self.allocator.lock() {
                 drop(guard.take());
             }
+            self.device.destroy_pipeline_cache(self.pipeline_cache, None);
             self.device.destroy_device(None);
             if let Some((loader, messenger)) = self.debug.take() {
                 loader.destroy_debug_utils_messenger(messenger, None);

@@ -85,7 +85,7 @@ impl ComputePipeline {
                     .specialization_info(&spec);
                 let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(this.layout)];
                 this.pipeline = device
-                    .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
+                    .create_compute_pipelines(ctx.pipeline_cache, &info, None)
                     .map_err(|(_, e)| e)
                     .context("creating compute pipeline")?[0];
 

@@ -40,6 +40,7 @@ struct PipelineKey {
     cull: bool,
     extension: bool,
     transparent: bool,
+    generic: bool,
 }
 
 /// Rays per dispatch: big images become many bounded dispatches.
@@ -130,6 +131,10 @@ pub struct Renderer {
     /// Every crossing along each ray (transparent rendering); from the
     /// scene's `transparency`.
     pub transparent: bool,
+    /// Compile pipelines for any scene: every primitive kind and the max of
+    /// groups kept in, instead of only what this scene uses (to measure
+    /// what specialisation buys; results are identical).
+    pub generic: bool,
 }
 
 /// The primitives in GPU layout, sorted by group.
@@ -196,13 +201,13 @@ fn globals(scene: &Scene, growth: f64, quad: QuadSettings) -> GpuGlobals {
 pub const CULL_MAX_PRIMITIVES: usize = 64;
 
 fn specialization(scene: &Scene, method: Method, key: &PipelineKey) -> Vec<(u32, u32)> {
-    let has = |pred: fn(&Primitive) -> bool| u32::from(scene.primitives().any(pred));
+    let has = |pred: fn(&Primitive) -> bool| u32::from(key.generic || scene.primitives().any(pred));
     let values = [
         ("SC_METHOD", method.shader_id()),
         ("SC_HAS_COMPACT_POINT", has(|p| matches!(p, Primitive::Point { kernel: scene::Kernel::Compact { .. }, .. }))),
         ("SC_HAS_GAUSSIAN_POINT", has(|p| matches!(p, Primitive::Point { kernel: scene::Kernel::Gaussian { .. }, .. }))),
         ("SC_HAS_COMPACT_PLANE", has(|p| matches!(p, Primitive::Plane { .. }))),
-        ("SC_MULTI_GROUP", u32::from(scene.groups.len() > 1)),
+        ("SC_MULTI_GROUP", u32::from(key.generic || scene.groups.len() > 1)),
         ("SC_SHADE", u32::from(key.shade)),
         ("SC_CULL", u32::from(key.cull && scene.primitive_count() <= CULL_MAX_PRIMITIVES)),
         ("SC_EXTENSION", u32::from(key.extension)),
@@ -259,6 +264,7 @@ impl Renderer {
             cull: true,
             quad: scene.marching.quad,
             transparent: scene.transparency.is_some(),
+            generic: false,
         })
     }
 
@@ -283,7 +289,15 @@ impl Renderer {
     }
 
     fn pipeline(&mut self, entry: EntryPoint, method: Method) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
-        let key = PipelineKey { entry, method, shade: self.shade, cull: self.cull, extension: self.quad.extension, transparent: self.transparent };
+        let key = PipelineKey {
+            entry,
+            method,
+            shade: self.shade,
+            cull: self.cull,
+            extension: self.quad.extension,
+            transparent: self.transparent,
+            generic: self.generic,
+        };
         if !self.pipelines.contains_key(&key) {
             let spec = specialization(&self.scene, method, &key);
             let spirv = match entry {
