@@ -232,7 +232,7 @@ pub fn run(
             renderer.set_scene(&posed)?;
             (rays, pixels) = camera_rays(&posed.camera, job.width, job.height, &posed.bounds);
         }
-        let out = renderer.march(job.method, &rays, |_| {})?;
+        let out = crate::render::offscreen::march_frame(&mut renderer, job.method, &rays)?;
         let image = crate::output::Frame::from_results(job.width, job.height, &out.results, &pixels);
         write_atomic(&path, &png_bytes(&image.shaded())?)?;
         let stats = MarchStats::of(out.results.iter().zip(&pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| r), out.gpu_ns);

@@ -137,6 +137,7 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
     (6, "SC_CULL"),
     (7, "SC_EXTENSION"),
     (8, "SC_TRANSPARENT"),
+    (9, "SC_SECONDARY"),
 ];
 
 /// Integer constants shared with GLSL, as `(name, value)`.

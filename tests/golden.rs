@@ -92,3 +92,11 @@ fn transparent_scenes_match_their_goldens() {
         }
     }
 }
+
+/// Reflection and refraction: fig16's dielectric blobs and ground at t = 0.
+#[test]
+fn refractive_fig16_matches_its_golden() {
+    let (shaded, heat) = render("fig16.ron", Method::QuadraticTaylor, 96);
+    check_golden("fig16-quadratic-taylor-96", &shaded);
+    check_golden("fig16-quadratic-taylor-96-steps", &heat);
+}

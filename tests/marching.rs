@@ -6,7 +6,7 @@ use common::*;
 use glam::DVec3;
 use isomarch::bench::{accuracy, accuracy_all, reference_crossings, reference_hits};
 use isomarch::field::quad::{QuadSettings, ValidityScope};
-use isomarch::layout::{FLAG_HIT, GpuResult};
+use isomarch::layout::{FLAG_HIT, GpuRay, GpuResult};
 use isomarch::output::MarchStats;
 use isomarch::render::Renderer;
 use isomarch::render::rays::{Ray, camera_rays, protocol_rays};
@@ -184,7 +184,7 @@ fn transparent_marching_finds_every_crossing_on_gpu_and_f64() {
     for seed in 0..3u64 {
         for max_of_groups in [false, true] {
             let mut s = random_scene(100 + seed, max_of_groups, Method::Segment);
-            s.transparency = Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::splat(0.1) });
+            s.transparency = Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::splat(0.1), ior: None, max_depth: 6 });
             let rays = protocol_rays(&s.bounds, 512, seed);
             let reference = reference_crossings(&s, &rays, false, false);
             checked += reference.iter().map(Vec::len).sum::<usize>();
@@ -237,7 +237,7 @@ fn transparent_marching_finds_every_crossing_on_gpu_and_f64() {
 fn bisection_methods_refuse_transparent_marching() {
     let ctx = gpu();
     let mut s = random_scene(1, false, Method::Raa);
-    s.transparency = Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::ZERO });
+    s.transparency = Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::ZERO, ior: None, max_depth: 6 });
     let rays = protocol_rays(&s.bounds, 16, 1);
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
     for method in [Method::Raa, Method::LinearBisection] {
@@ -267,5 +267,57 @@ fn generic_pipelines_give_the_specialised_results() {
             }
         }
     }
+    assert_no_validation(&ctx);
+}
+
+/// A single compact blob is a sphere of radius ρ = R sqrt(1 - iso^(1/3)).
+/// A ray at height h enters it, refracts by Snell's law at the field's
+/// normal, is marched inside as a secondary ray to its exit, and refracts
+/// out: it must leave deviated by 2(θi - θt) towards the axis, the sphere's
+/// closed form. From inside, a ray meeting the surface beyond the critical
+/// angle is totally reflected.
+#[test]
+fn refraction_through_a_blob_sphere_follows_snell_and_reflects_totally_inside() {
+    use isomarch::render::optics::{fresnel, refract};
+    let ctx = gpu();
+    let (r_support, iso, ior) = (2.0, 0.5, 1.5);
+    let rho = r_support * (1.0 - f64::cbrt(iso)).sqrt();
+    let s = scene(vec![vec![compact(DVec3::ZERO, r_support)]], iso, Method::QuadraticTaylor, 1e-4);
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    renderer.shade = false;
+    let gpu_ray = |o: DVec3, d: DVec3| {
+        let (t0, t1) = s.bounds.clip_ray(o, d).unwrap();
+        GpuRay { o: [o.x as f32, o.y as f32, o.z as f32, t0 as f32], d: [d.x as f32, d.y as f32, d.z as f32, t1 as f32] }
+    };
+    let hit = |r: &mut Renderer, ray: GpuRay, secondary: bool| {
+        r.secondary = secondary;
+        let res = r.march(Method::QuadraticTaylor, &[ray], |_| {}).unwrap().results[0];
+        assert_eq!(res.counts[3] & FLAG_HIT, FLAG_HIT, "no hit for {ray:?}");
+        let o = DVec3::new(ray.o[0].into(), ray.o[1].into(), ray.o[2].into());
+        let d = DVec3::new(ray.d[0].into(), ray.d[1].into(), ray.d[2].into());
+        (o + f64::from(res.hit[3]) * d, DVec3::new(res.hit[0].into(), res.hit[1].into(), res.hit[2].into()))
+    };
+    let eps = 1e-3;
+    for h in [0.2 * rho, 0.5 * rho, 0.8 * rho] {
+        let d = DVec3::X;
+        let (p, n) = hit(&mut renderer, gpu_ray(DVec3::new(-5.0, h, 0.0), d), false);
+        assert!((p.length() - rho).abs() < 1e-3, "entry {p} not on the sphere");
+        let inside = refract(d, n, 1.0 / ior).expect("entering never reflects totally");
+        let (q, m) = hit(&mut renderer, gpu_ray(p - eps * n, inside), true);
+        assert!((q.length() - rho).abs() < 1e-3 && (q - p).length() > 0.1, "exit {q}");
+        // Leaving: the normal facing the inside is -m.
+        let out = refract(inside, -m, ior).expect("a ray that entered a sphere leaves it");
+        let (theta_i, theta_t) = ((h / rho).asin(), ((h / rho) / ior).asin());
+        let deviation = 2.0 * (theta_i - theta_t);
+        let expected = DVec3::new(deviation.cos(), -deviation.sin(), 0.0);
+        assert!(out.angle_between(expected) < 2e-3, "h = {h}: leaves along {out}, Snell says {expected}");
+    }
+    // From inside, 0.9 ρ off the axis: the surface is met at asin(0.9) = 64°,
+    // beyond the critical angle asin(1/1.5) = 41.8°.
+    let d = DVec3::X;
+    let (q, m) = hit(&mut renderer, gpu_ray(DVec3::new(0.0, 0.9 * rho, 0.0), d), true);
+    let cos_i = d.dot(m);
+    assert!((cos_i - (1.0 - 0.81f64).sqrt()).abs() < 2e-3, "incidence cos {cos_i} at {q}");
+    assert!(refract(d, -m, ior).is_none() && fresnel(cos_i, ior) == 1.0, "total internal reflection");
     assert_no_validation(&ctx);
 }

@@ -100,8 +100,12 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
         // Opaque marching steps only from outside (f < 0; f >= 0 is a hit
         // below), so only the upper bound's root is needed, and the
         // compiler drops the lower bounds' arithmetic altogether.
-        step = min(SC_TRANSPARENT != 0u ? next_root(b) : upper_root(b), t_end - m.t);
+        step = min(SC_TRANSPARENT != 0u || SC_SECONDARY != 0u ? next_root(b) : upper_root(b), t_end - m.t);
     }
+    // A secondary ray (reflected or refracted) starts just past a surface,
+    // on the side its sign at the start says, and looks for the first
+    // sign change from there.
+    if (SC_SECONDARY != 0u && m.steps == 1u && f > 0.0) m.flags |= FLAG_INSIDE;
     // A crossing: f >= 0 entering, f <= 0 again leaving (BENCHMARKS.md).
     bool inside = (m.flags & FLAG_INSIDE) != 0u;
     if (inside ? f <= 0.0 : f >= 0.0) {

@@ -2,6 +2,7 @@
 //! dispatches with deadlines.
 
 pub mod offscreen;
+pub mod optics;
 pub mod rays;
 
 use std::collections::HashMap;
@@ -40,6 +41,7 @@ struct PipelineKey {
     cull: bool,
     extension: bool,
     transparent: bool,
+    secondary: bool,
     generic: bool,
 }
 
@@ -131,6 +133,10 @@ pub struct Renderer {
     /// Every crossing along each ray (transparent rendering); from the
     /// scene's `transparency`.
     pub transparent: bool,
+    /// Rays that start just past a surface (reflected, refracted): the
+    /// side is the field's sign at the start, and the march stops at the
+    /// first sign change (entering or leaving).
+    pub secondary: bool,
     /// Compile pipelines for any scene: every primitive kind and the max of
     /// groups kept in, instead of only what this scene uses (to measure
     /// what specialisation buys; results are identical).
@@ -212,6 +218,7 @@ fn specialization(scene: &Scene, method: Method, key: &PipelineKey) -> Vec<(u32,
         ("SC_CULL", u32::from(key.cull && scene.primitive_count() <= CULL_MAX_PRIMITIVES)),
         ("SC_EXTENSION", u32::from(key.extension)),
         ("SC_TRANSPARENT", u32::from(key.transparent)),
+        ("SC_SECONDARY", u32::from(key.secondary)),
     ];
     values
         .iter()
@@ -264,6 +271,7 @@ impl Renderer {
             cull: true,
             quad: scene.marching.quad,
             transparent: scene.transparency.is_some(),
+            secondary: false,
             generic: false,
         })
     }
@@ -296,6 +304,7 @@ impl Renderer {
             cull: self.cull,
             extension: self.quad.extension,
             transparent: self.transparent,
+            secondary: self.secondary,
             generic: self.generic,
         };
         if !self.pipelines.contains_key(&key) {
@@ -359,8 +368,8 @@ impl Renderer {
         let handles = self.pipeline(EntryPoint::March, method)?;
         let growth = self.growth.or(self.scene.marching.growth).unwrap_or_else(|| method.default_growth());
         self.globals.write(0, &[globals(&self.scene, growth, self.quad)])?;
-        if self.transparent && matches!(method, Method::LinearBisection | Method::Raa) {
-            bail!("{method} marches opaque scenes only: its bisection stops at the first crossing; use an Algorithm 1 method for transparency");
+        if (self.transparent || self.secondary) && matches!(method, Method::LinearBisection | Method::Raa) {
+            bail!("{method} marches opaque scenes only: its bisection looks for a first entering crossing; use an Algorithm 1 method for transparency, reflection and refraction");
         }
         let mut results = Vec::with_capacity(rays.len());
         let mut crossings = Vec::new();

@@ -67,10 +67,32 @@ pub fn render_frame(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Frame, March
     let mut renderer = Renderer::new(ctx, &job.scene)?;
     renderer.timeout = job.timeout;
     let (rays, pixels) = camera_rays(&job.scene.camera, job.width, job.height, &job.scene.bounds);
-    let out = renderer.march(job.method, &rays, |_| {})?;
+    let out = march_frame(&mut renderer, job.method, &rays)?;
     let counted = out.results.iter().zip(&pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| r);
     let stats = MarchStats::of(counted, out.gpu_ns);
     Ok((Frame::from_results(job.width, job.height, &out.results, &pixels), stats))
+}
+
+/// Marches a frame's camera rays. A dielectric scene (transparency with an
+/// index of refraction) is traced through its reflections and refractions
+/// (`optics::trace`): each pixel's colour is the traced one, and its steps
+/// and evaluations count every ray spawned for it.
+pub fn march_frame(renderer: &mut Renderer, method: Method, rays: &[crate::layout::GpuRay]) -> Result<super::MarchOutput> {
+    let dielectric = renderer.scene().transparency.and_then(|t| {
+        t.ior.map(|ior| super::optics::Dielectric { ior, absorption: t.absorption, max_depth: t.max_depth })
+    });
+    let Some(material) = dielectric else {
+        return renderer.march(method, rays, |_| {});
+    };
+    let traced = super::optics::trace(renderer, method, rays, material)?;
+    let mut results = traced.first;
+    for (i, r) in results.iter_mut().enumerate() {
+        let c = traced.color[i];
+        r.color = [c.x as f32, c.y as f32, c.z as f32, 1.0];
+        r.counts[0] = traced.steps[i];
+        r.counts[1] = traced.evals[i];
+    }
+    Ok(super::MarchOutput { results, crossings: Vec::new(), gpu_ns: traced.gpu_ns })
 }
 
 /// Renders and writes every requested file. All files are encoded before

@@ -46,6 +46,17 @@ pub struct TransparencyFile {
     /// Absorption per unit length inside, linear RGB (Beer-Lambert).
     #[serde(default)]
     pub absorption: [f64; 3],
+    /// Index of refraction: given, the surface is a dielectric that
+    /// reflects and refracts (Fresnel, Snell) instead of compositing.
+    #[serde(default)]
+    pub ior: Option<f64>,
+    /// The most surface hits a reflected or refracted path may take.
+    #[serde(default = "default_max_depth")]
+    pub max_depth: u32,
+}
+
+fn default_max_depth() -> u32 {
+    6
 }
 
 fn default_opacity() -> f64 {

@@ -54,6 +54,9 @@ pub struct Light {
 pub struct Transparency {
     pub opacity: f64,
     pub absorption: DVec3,
+    /// A dielectric (reflection and refraction) when set.
+    pub ior: Option<f64>,
+    pub max_depth: u32,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -322,7 +325,11 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
             if absorption.min_element() < 0.0 {
                 return Err(c.err("transparency.absorption", format!("must be >= 0 on every channel, got {:?}", t.absorption)));
             }
-            Some(Transparency { opacity: t.opacity, absorption })
+            let ior = t.ior.map(|n| c.positive("transparency.ior", n)).transpose()?;
+            if !(1..=16).contains(&t.max_depth) {
+                return Err(c.err("transparency.max_depth", format!("must be in 1..=16, got {}", t.max_depth)));
+            }
+            Some(Transparency { opacity: t.opacity, absorption, ior, max_depth: t.max_depth })
         }
     };
     let mut lights = Vec::new();
