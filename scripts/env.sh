@@ -11,6 +11,7 @@ ISOMARCH_PACKAGES=(
     cmake python3 g++ git            # shaderc is built from source by cargo
     glslang-tools spirv-tools vulkan-tools  # inspection: glslangValidator, spirv-dis, vulkaninfo
     ca-certificates curl pkg-config
+    fonts-dejavu-core                # the font of `isomarch tradeoff`'s plots
 )
 
 isomarch_install_packages() {

@@ -17,5 +17,6 @@ pub mod method;
 pub mod output;
 pub mod render;
 pub mod scene;
+pub mod tradeoff;
 
 pub use method::Method;

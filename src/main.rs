@@ -126,6 +126,39 @@ enum Command {
     },
     /// List Vulkan devices and the limits that matter.
     Info,
+    /// Measure the speed-accuracy trade: every method at each minimum step
+    /// and step budget on one seeded ray set, against the f64 reference.
+    /// Writes DIR/tradeoff.csv and a plot of time per ray against error
+    /// with the Pareto front (DIR/tradeoff.png and .svg).
+    Tradeoff {
+        /// Scene file (RON).
+        scene: PathBuf,
+        /// Comma-separated marchers.
+        #[arg(long, default_value = "sphere,segment,linear-taylor,quadratic-taylor,quadratic")]
+        methods: String,
+        /// Minimum steps to sweep (comma-separated; default 1e-4,1e-3,1e-2,0.1,1).
+        #[arg(long, value_delimiter = ',')]
+        min_steps: Vec<f64>,
+        /// Step budgets to sweep (comma-separated; default 8,32,128,1000,10000).
+        #[arg(long = "max-steps-list", value_delimiter = ',')]
+        max_steps: Vec<u32>,
+        /// Rays (default 16384; 1024 with --quick).
+        #[arg(long)]
+        rays: Option<usize>,
+        /// Seed of the ray set.
+        #[arg(long, default_value_t = bench::DEFAULT_SEED)]
+        seed: u64,
+        /// A small sweep for CI: segment and quadratic-taylor unless
+        /// --methods says otherwise, minimum steps 0.01 and 0.1, budgets 32
+        /// and 1000, 1024 rays.
+        #[arg(long)]
+        quick: bool,
+        /// Output folder (default: tradeoff-<scene name>).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
     /// Compare marchers on the benchmark protocol (BENCHMARKS.md): the same seeded rays for each.
     Bench {
         /// Scene file (RON).
@@ -341,6 +374,62 @@ fn run(cli: Cli) -> Result<()> {
                 s.march.hit_rate,
                 s.march.gpu_ms.map_or(String::new(), |ms| format!(", GPU {ms:.1} ms"))
             );
+            save_cache(&ctx);
+            check_validation(&ctx)
+        }
+        Command::Tradeoff { scene: path, methods, min_steps, max_steps, rays, seed, quick, output, gpu } => {
+            let scene = Scene::load(&path)?.at_time(0.0);
+            let explicit_methods = std::env::args().any(|a| a == "--methods" || a.starts_with("--methods="));
+            let methods = if quick && !explicit_methods { "segment,quadratic-taylor".to_string() } else { methods };
+            let methods = parse_list(&methods).map_err(anyhow::Error::msg).context("--methods")?;
+            let mut sweep = if quick { isomarch::tradeoff::Sweep::quick(methods) } else { isomarch::tradeoff::Sweep::full(methods) };
+            if !min_steps.is_empty() {
+                if let Some(bad) = min_steps.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+                    bail!("--min-steps must be positive, got {bad}");
+                }
+                sweep.min_steps = min_steps;
+            }
+            if !max_steps.is_empty() {
+                if max_steps.contains(&0) {
+                    bail!("--max-steps-list must be at least 1");
+                }
+                sweep.max_steps = max_steps;
+            }
+            if let Some(n) = rays {
+                if n == 0 {
+                    bail!("--rays must be at least 1");
+                }
+                sweep.rays = n;
+            }
+            sweep.seed = seed;
+            let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+            let dir = output.unwrap_or_else(|| PathBuf::from(format!("tradeoff-{stem}")));
+            let (ctx, timeout) = open(&gpu)?;
+            let total = sweep.methods.len() * sweep.min_steps.len() * sweep.max_steps.len();
+            let bar = indicatif::ProgressBar::new(total as u64);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("tradeoff [{bar:30}] {pos}/{len} settings ({eta} left)")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                    .progress_chars("=> "),
+            );
+            let points = isomarch::tradeoff::run(&ctx, &scene, &sweep, timeout, |n| bar.set_position(n as u64))?;
+            bar.finish_and_clear();
+            write_atomic(&dir.join("tradeoff.csv"), isomarch::tradeoff::csv(&points).as_bytes())?;
+            let title = format!("{stem}: time per ray against error, {} rays on {}", sweep.rays, ctx.info.name);
+            isomarch::tradeoff::plot(&points, &title, &dir.join("tradeoff.png"), &dir.join("tradeoff.svg"))?;
+            eprintln!("{} settings; Pareto front:", points.len());
+            for p in points.iter().filter(|p| p.pareto) {
+                eprintln!(
+                    "  {:<18} min step {:<7} max steps {:<6} {} ns/ray, error {:.2e}, miss rate {:.5}",
+                    p.method,
+                    p.min_step,
+                    p.max_steps,
+                    p.ns_per_ray.map_or("n/a".into(), |v| format!("{v:.0}")),
+                    p.error,
+                    p.miss_rate
+                );
+            }
+            eprintln!("wrote {}/tradeoff.csv, .png, .svg", dir.display());
             save_cache(&ctx);
             check_validation(&ctx)
         }

@@ -146,3 +146,52 @@ fn animated_frames_move_and_static_frames_do_not() {
     assert!(frames("scenes/fig16.ron", "moving") > 20, "fig16's blobs move between t = 0 s and t = 1 s");
     assert_eq!(frames("scenes/default.ron", "still"), 0, "a scene without motion renders the same frame");
 }
+
+/// `isomarch tradeoff --quick`: a CSV row per setting with finite figures,
+/// a plot in PNG and SVG, a Pareto front of undominated settings, and more
+/// steps or a finer minimum step never make a method less accurate.
+#[test]
+fn tradeoff_writes_its_csv_and_plot() {
+    let dir = scratch("tradeoff");
+    let run = Command::new(bin())
+        .args(["tradeoff", "scenes/fig10.ron", "--quick", "-o"])
+        .arg(&dir)
+        .current_dir(repo_root())
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let text = std::fs::read_to_string(dir.join("tradeoff.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"));
+    let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(String::from).collect()).collect();
+    assert_eq!(rows.len(), 2 * 2 * 2, "2 methods x 2 minimum steps x 2 budgets");
+    let num = |r: &Vec<String>, c: &str| r[col(c)].parse::<f64>().unwrap_or_else(|_| panic!("{c} = {:?}", r[col(c)]));
+    let mut front = Vec::new();
+    for r in &rows {
+        for c in ["ns_per_ray", "steps_per_ray", "error", "mean_error", "p99_error", "miss_rate"] {
+            assert!(num(r, c).is_finite() && num(r, c) >= 0.0, "{c} in {r:?}");
+        }
+        if r[col("pareto")] == "true" {
+            front.push((num(r, "ns_per_ray"), num(r, "error")));
+        }
+    }
+    assert!(!front.is_empty(), "an empty Pareto front");
+    for r in &rows {
+        let (t, e) = (num(r, "ns_per_ray"), num(r, "error"));
+        for &(ft, fe) in &front {
+            assert!(!(t <= ft && e <= fe && (t < ft || e < fe)), "front point ({ft}, {fe}) is dominated by {r:?}");
+        }
+    }
+    for method in ["segment", "quadratic-taylor"] {
+        let error = |min_step: &str, max_steps: &str| {
+            let r = rows.iter().find(|r| r[0] == method && r[1] == min_step && r[2] == max_steps).unwrap();
+            num(r, "error")
+        };
+        assert!(error("0.01", "1000") <= error("0.1", "32") + 1e-9, "{method}: the finest, longest setting is less accurate");
+    }
+    let png = image::open(dir.join("tradeoff.png")).unwrap().to_rgb8();
+    let distinct: std::collections::HashSet<_> = png.pixels().map(|p| p.0).collect();
+    assert!(distinct.len() > 10, "a blank plot");
+    assert!(std::fs::read_to_string(dir.join("tradeoff.svg")).unwrap().contains("<svg"));
+}
