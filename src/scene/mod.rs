@@ -16,6 +16,10 @@ pub use animation::{Animation, CameraPath, Motion};
 use crate::field::quad::{QuadSettings, ValidityScope};
 use crate::method::Method;
 
+/// Largest kernel weight or slope the GPU's f32 arithmetic takes with room
+/// to spare (f32 ends at 3.4e38).
+pub const GPU_FLOAT_LIMIT: f64 = 1e36;
+
 /// Fraction of the iso value below which a Gaussian kernel counts as zero
 /// for bounding the scene (the kernel itself is never truncated).
 pub const GAUSSIAN_BOUNDS_FRACTION: f64 = 1e-3;
@@ -385,10 +389,16 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
                             let r = c.positive(&format!("{at}.kernel.r"), *r)?;
                             let s = c.positive(&format!("{at}.kernel.s"), *s)?;
                             let default = iso * s.exp();
-                            if !default.is_finite() {
-                                return Err(c.err(format!("{at}.kernel.s"), format!("iso·e^s overflows for s = {s}; use s <= 700")));
-                            }
                             let weight = c.weight(&format!("{at}.kernel.weight"), *weight, default)?;
+                            // The GPU computes in f32: the weight and the
+                            // kernel's Lipschitz bound w·sqrt(2s)/r must fit.
+                            let slope = weight * (2.0 * s).sqrt() / r;
+                            if !(weight.max(slope) < GPU_FLOAT_LIMIT) {
+                                return Err(c.err(
+                                    format!("{at}.kernel"),
+                                    format!("weight {weight:.3e} (iso·e^s by default) and slope {slope:.3e} must stay below {GPU_FLOAT_LIMIT:.0e}, the GPU's f32 range; lower s (about 80 at most) or the weight"),
+                                ));
+                            }
                             Kernel::Gaussian { r, s, weight }
                         }
                     };

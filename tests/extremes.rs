@@ -1,0 +1,226 @@
+//! Stability at the extremes: seeded scenes and settings at the edges of
+//! what isomarch accepts. Every case: no NaN or infinity in any output, no
+//! hang (every march ends within its budget and the deadline), and first
+//! hits within a stated bound of the f64 reference, for every method.
+//!
+//! What runs in CI and why: each case uses a few hundred rays on scenes of
+//! a few blobs, enough to meet every code path (supports entered and left,
+//! sums, maxes, both kernels) in seconds; the primitive count is swept up to
+//! the per-step loop budget (473) on few rays, since larger scenes need an
+//! acceleration structure that does not exist yet.
+
+mod common;
+
+use common::*;
+use glam::DVec3;
+use isomarch::bench::{accuracy, reference_hits};
+use isomarch::layout::{FLAG_HIT, FLAG_OUT_OF_STEPS, GpuRay, GpuResult};
+use isomarch::render::Renderer;
+use isomarch::render::rays::protocol_rays;
+use isomarch::scene::{Kernel, Primitive, Scene};
+use isomarch::Method;
+
+/// Measured regression bounds (of 256 rays); see the README's limits.
+const SPHERE_SHARP_GAUSSIAN_MISSES: usize = 256;
+const BISECTION_TINY_STEP_MISSES: usize = 13;
+
+/// Every method that marches opaque scenes.
+const METHODS: &[Method] = Method::ALL;
+
+fn assert_finite(results: &[GpuResult], what: &str) {
+    for r in results {
+        assert!(r.hit.iter().chain(&r.color).all(|x| x.is_finite()), "{what}: non-finite result {r:?}");
+    }
+}
+
+/// Marches `rays` with every method; each must agree with the reference
+/// to `tol` (scene units; a miss, a false hit or a late hit beyond `late`
+/// counts against `allowed`, the measured regression bound).
+fn check_all(ctx: &std::sync::Arc<isomarch::gpu::Context>, s: &Scene, rays: &[GpuRay], tol: f64, late: f64, allowed: impl Fn(Method) -> usize, what: &str) {
+    let reference = reference_hits(s, rays, false);
+    let mut renderer = Renderer::new(ctx, s).unwrap();
+    renderer.shade = false;
+    for &method in METHODS {
+        let out = renderer.march(method, rays, |_| {}).unwrap();
+        assert_finite(&out.results, &format!("{what} {method}"));
+        let acc = accuracy(&out.results, &reference, late, tol);
+        let allowed = allowed(method);
+        assert!(
+            acc.misses + acc.false_hits <= allowed,
+            "{what} {method}: {} missed, {} false (allowed {allowed}); max error {:e}",
+            acc.misses,
+            acc.false_hits,
+            acc.max_abs_error
+        );
+    }
+}
+
+/// `s` scaled by `k` about the origin: centres, radii and Gaussian scales.
+fn scaled(s: &Scene, k: f64) -> Scene {
+    let groups = s
+        .groups
+        .iter()
+        .map(|g| {
+            g.iter()
+                .map(|p| match *p {
+                    Primitive::Point { center, kernel: Kernel::Compact { radius, weight } } => {
+                        Primitive::Point { center: center * k, kernel: Kernel::Compact { radius: radius * k, weight } }
+                    }
+                    Primitive::Point { center, kernel: Kernel::Gaussian { r, s, weight } } => {
+                        Primitive::Point { center: center * k, kernel: Kernel::Gaussian { r: r * k, s, weight } }
+                    }
+                    other => other,
+                })
+                .collect()
+        })
+        .collect();
+    let mut out = scene(groups, s.iso, Method::Segment, 1.0);
+    out.marching.min_step = 1e-4 * out.min_radius();
+    out
+}
+
+#[test]
+fn radii_from_1e_minus_3_to_1e3() {
+    let ctx = gpu();
+    for k in [1e-3, 1.0, 1e3] {
+        for max in [false, true] {
+            let s = scaled(&random_scene(40, max, Method::Segment), k);
+            let rays = protocol_rays(&s.bounds, 256, 40);
+            // Relative to the scale: the refinement tolerance plus f32.
+            let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
+            check_all(&ctx, &s, &rays, tol, tol, |_| 0, &format!("scale {k} max={max}"));
+        }
+    }
+    assert_no_validation(&ctx);
+}
+
+#[test]
+fn grazing_rays_and_rays_starting_inside() {
+    let ctx = gpu();
+    let (r, iso) = (2.0, 0.5);
+    let rho = r * (1.0 - f64::cbrt(iso)).sqrt();
+    let s = scene(vec![vec![compact(DVec3::ZERO, r)]], iso, Method::Segment, 1e-4);
+    let mut rays = Vec::new();
+    // Tangent, just inside and just outside the sphere, and starts inside.
+    for h in [rho * (1.0 - 1e-6), rho, rho * (1.0 + 1e-6), rho * 0.999, rho * 1.001] {
+        let o = DVec3::new(-5.0, h, 0.0);
+        let (t0, t1) = s.bounds.clip_ray(o, DVec3::X).unwrap();
+        rays.push(GpuRay { o: [o.x as f32, o.y as f32, o.z as f32, t0 as f32], d: [1.0, 0.0, 0.0, t1 as f32] });
+    }
+    for o in [DVec3::ZERO, DVec3::new(0.5 * rho, 0.0, 0.0), DVec3::new(0.0, 0.0, rho * (1.0 - 1e-5))] {
+        rays.push(GpuRay { o: [o.x as f32, o.y as f32, o.z as f32, 0.0], d: [0.0, 0.0, 1.0, 3.0] });
+    }
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    for &method in METHODS {
+        let out = renderer.march(method, &rays, |_| {}).unwrap().results;
+        assert_finite(&out, &format!("grazing {method}"));
+        for r in &out {
+            assert_eq!(r.counts[3] & FLAG_OUT_OF_STEPS, 0, "{method}: a grazing ray ran out of steps");
+        }
+        // Clearly inside the tangent: hit; clearly outside: no hit.
+        assert_ne!(out[3].counts[3] & FLAG_HIT, 0, "{method}: missed a ray 0.1% inside the tangent");
+        assert_eq!(out[4].counts[3] & FLAG_HIT, 0, "{method}: hit a ray 0.1% outside the tangent");
+        for (i, r) in out[5..].iter().enumerate() {
+            assert_ne!(r.counts[3] & FLAG_HIT, 0, "{method}: ray {i} starting inside is not a hit");
+            assert_eq!(r.hit[3], 0.0, "{method}: ray {i} starting inside hits at {}", r.hit[3]);
+        }
+    }
+    assert_no_validation(&ctx);
+}
+
+#[test]
+fn coincident_blobs_iso_extremes_and_gaussian_scales() {
+    let ctx = gpu();
+    let cases: Vec<(String, Vec<Primitive>, f64)> = vec![
+        ("coincident".into(), vec![compact(DVec3::ZERO, 2.0), compact(DVec3::ZERO, 2.0)], 0.5),
+        ("nearly coincident".into(), vec![compact(DVec3::ZERO, 2.0), compact(DVec3::new(1e-6, 0.0, 0.0), 2.0)], 0.5),
+        ("iso near 0".into(), vec![compact(DVec3::ZERO, 2.0), compact(DVec3::new(1.0, 0.5, 0.0), 1.5)], 1e-6),
+        ("iso near the maximum".into(), vec![compact(DVec3::ZERO, 2.0)], 0.999),
+        ("tiny Gaussian s".into(), vec![gaussian(DVec3::ZERO, 1.0, 0.01, 0.5), gaussian(DVec3::new(1.5, 0.0, 0.0), 1.0, 0.01, 0.5)], 0.5),
+        ("huge Gaussian s".into(), vec![gaussian(DVec3::ZERO, 1.0, 50.0, 0.5), gaussian(DVec3::new(1.5, 0.0, 0.0), 1.0, 50.0, 0.5)], 0.5),
+    ];
+    for (name, prims, iso) in cases {
+        let mut s = scene(vec![prims], iso, Method::Segment, 1.0);
+        s.marching.min_step = 1e-4 * s.min_radius();
+        let rays = protocol_rays(&s.bounds, 256, 7);
+        let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
+        // Sphere tracing's one global Lipschitz bound is e^s times too
+        // large for a sharp Gaussian: it crawls at the minimum step and
+        // runs out of steps (measured: a regression bound, README limits).
+        let sharp = name == "huge Gaussian s";
+        check_all(&ctx, &s, &rays, tol, tol, |m| if sharp && m == Method::Sphere { SPHERE_SHARP_GAUSSIAN_MISSES } else { 0 }, &name);
+    }
+    assert_no_validation(&ctx);
+}
+
+/// Gaussians too sharp for f32 are refused when the scene loads.
+#[test]
+fn gaussians_beyond_f32_are_refused() {
+    let text = r#"Scene(camera: (eye: (0.0, 0.0, 8.0), target: (0.0, 0.0, 0.0)), iso: 0.5,
+        groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Gaussian(r: 1.0, s: 100.0))])])"#;
+    let e = Scene::parse(text, "sharp.ron").err().expect("refused").to_string();
+    assert!(e.contains("f32") && e.contains("kernel"), "{e}");
+    assert!(Scene::parse(&text.replace("100.0", "50.0"), "ok.ron").is_ok());
+}
+
+#[test]
+fn minimum_steps_and_budgets_at_their_limits() {
+    let ctx = gpu();
+    let base = random_scene(41, true, Method::Segment);
+    let rays = protocol_rays(&base.bounds, 256, 41);
+    let reference = reference_hits(&base, &rays, false);
+    for (min_step, max_steps) in [(1e-6, 100_000), (1.0, 1000), (0.1, 1), (1e-6, 1)] {
+        let mut s = base.clone();
+        s.marching.min_step = min_step;
+        s.marching.max_steps = max_steps;
+        let mut renderer = Renderer::new(&ctx, &s).unwrap();
+        renderer.shade = false;
+        for &method in METHODS {
+            let out = renderer.march(method, &rays, |_| {}).unwrap().results;
+            let what = format!("min step {min_step}, {max_steps} steps, {method}");
+            assert_finite(&out, &what);
+            for r in &out {
+                assert!(r.counts[0] <= max_steps, "{what}: {} steps", r.counts[0]);
+            }
+            // A hit is never early, whatever the settings.
+            let acc = accuracy(&out, &reference, f64::INFINITY, 2.0 * s.refine_tolerance() + 1e-5);
+            assert_eq!(acc.false_hits, 0, "{what}: hits before the reference");
+            if max_steps >= 1000 && min_step <= 1e-4 {
+                let acc = accuracy(&out, &reference, 2.0 * s.refine_tolerance() + 1e-5, 2.0 * s.refine_tolerance() + 1e-5);
+                // Bisection with pruning descends to the minimum step
+                // wherever its bound cannot exclude 0, which near the
+                // surface is a great many leaves: at 1e-6 some rays run out
+                // of their 100,000 steps (measured regression bound).
+                let allowed = if matches!(method, Method::LinearBisection | Method::Raa) { BISECTION_TINY_STEP_MISSES } else { 0 };
+                let out_of_steps = out.iter().filter(|r| r.counts[3] & FLAG_OUT_OF_STEPS != 0).count();
+                assert!(acc.misses <= allowed, "{what}: {} missed or late hits (allowed {allowed}; {out_of_steps} out of steps)", acc.misses);
+                if acc.misses > 0 {
+                    eprintln!("{what}: {} missed, {out_of_steps} out of steps", acc.misses);
+                }
+            }
+        }
+    }
+    assert_no_validation(&ctx);
+}
+
+#[test]
+fn one_to_the_most_primitives_a_step_can_visit() {
+    let ctx = gpu();
+    for n in [1usize, 64, 65, isomarch::render::max_primitives()] {
+        // n compact blobs in a cube whose side grows with n, so density
+        // stays moderate.
+        let side = 2.0 * (n as f64).cbrt() + 2.0;
+        let mut rng_state = 12345u64 + n as u64;
+        let mut next = || {
+            rng_state = rng_state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (rng_state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let prims = (0..n).map(|_| compact(DVec3::new(next(), next(), next()) * side, 1.0 + next())).collect();
+        let mut s = scene(vec![prims], 0.5, Method::Segment, 1.0);
+        s.marching.min_step = 1e-4 * s.min_radius();
+        let rays = protocol_rays(&s.bounds, 64, n as u64);
+        let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
+        check_all(&ctx, &s, &rays, tol, tol, |_| 0, &format!("{n} primitives"));
+    }
+    assert_no_validation(&ctx);
+}
