@@ -133,9 +133,10 @@ enum Command {
     Tradeoff {
         /// Scene file (RON).
         scene: PathBuf,
-        /// Comma-separated marchers.
-        #[arg(long, default_value = "sphere,segment,linear-taylor,quadratic-taylor,quadratic")]
-        methods: String,
+        /// Comma-separated marchers (default sphere,segment,linear-taylor,
+        /// quadratic-taylor,quadratic; segment,quadratic-taylor with --quick).
+        #[arg(long)]
+        methods: Option<String>,
         /// Minimum steps to sweep (comma-separated; default 1e-4,1e-3,1e-2,0.1,1).
         #[arg(long, value_delimiter = ',')]
         min_steps: Vec<f64>,
@@ -379,9 +380,8 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Tradeoff { scene: path, methods, min_steps, max_steps, rays, seed, quick, output, gpu } => {
             let scene = Scene::load(&path)?.at_time(0.0);
-            let explicit_methods = std::env::args().any(|a| a == "--methods" || a.starts_with("--methods="));
-            let methods = if quick && !explicit_methods { "segment,quadratic-taylor".to_string() } else { methods };
-            let methods = parse_list(&methods).map_err(anyhow::Error::msg).context("--methods")?;
+            let default = if quick { "segment,quadratic-taylor" } else { "sphere,segment,linear-taylor,quadratic-taylor,quadratic" };
+            let methods = parse_list(methods.as_deref().unwrap_or(default)).map_err(anyhow::Error::msg).context("--methods")?;
             let mut sweep = if quick { isomarch::tradeoff::Sweep::quick(methods) } else { isomarch::tradeoff::Sweep::full(methods) };
             if !min_steps.is_empty() {
                 if let Some(bad) = min_steps.iter().find(|s| !(s.is_finite() && **s > 0.0)) {

@@ -90,6 +90,16 @@ pub fn environment(scene: &Scene, d: DVec3) -> DVec3 {
 /// surface and stop at the next crossing, entering or leaving). A path
 /// still bouncing after `max_depth` hits takes the environment ahead.
 pub fn trace(renderer: &mut Renderer, method: Method, rays: &[GpuRay], material: Dielectric) -> Result<Traced> {
+    // Every generation stops at its next crossing; the renderer's own
+    // settings come back whatever happens.
+    let saved = (renderer.secondary, renderer.transparent);
+    renderer.transparent = false;
+    let traced = trace_generations(renderer, method, rays, material);
+    (renderer.secondary, renderer.transparent) = saved;
+    traced
+}
+
+fn trace_generations(renderer: &mut Renderer, method: Method, rays: &[GpuRay], material: Dielectric) -> Result<Traced> {
     let scene: Scene = renderer.scene().clone();
     let eps = 10.0 * scene.refine_tolerance();
     let mut out = Traced {
@@ -101,18 +111,12 @@ pub fn trace(renderer: &mut Renderer, method: Method, rays: &[GpuRay], material:
     };
     let mut paths: Vec<Path> = (0..rays.len()).map(|pixel| Path { pixel, weight: DVec3::ONE, inside: false }).collect();
     let mut current: Vec<GpuRay> = rays.to_vec();
-    // Every generation stops at its next crossing.
-    let (secondary, transparent) = (renderer.secondary, renderer.transparent);
-    renderer.transparent = false;
     for depth in 0..=material.max_depth {
         if current.is_empty() {
             break;
         }
         renderer.secondary = depth > 0;
-        let marched = renderer.march(method, &current, |_| {});
-        (renderer.secondary, renderer.transparent) = (secondary, transparent);
-        let marched = marched?;
-        renderer.transparent = false;
+        let marched = renderer.march(method, &current, |_| {})?;
         if depth == 0 {
             out.first = marched.results.clone();
         }
@@ -167,7 +171,6 @@ pub fn trace(renderer: &mut Renderer, method: Method, rays: &[GpuRay], material:
         current = next_rays;
         paths = next_paths;
     }
-    renderer.transparent = transparent;
     Ok(out)
 }
 
