@@ -53,7 +53,9 @@ void main() {
     r.counts = uvec4(m.steps, g_evals, m.refine_evals, m.flags & (FLAG_HIT | FLAG_OUT_OF_STEPS));
     r.crossings = uvec4(m.crossings, 0u, 0u, 0u);
     if ((m.flags & FLAG_HIT) != 0u) {
-        // The first crossing: its normal and distance.
+        // The first crossing: its normal and distance. A transparent march
+        // may have passed it slices ago, behind what culling kept.
+        if (SC_TRANSPARENT != 0u) g_mask = uvec2(0xffffffffu);
         float t = SC_TRANSPARENT != 0u ? m.first : m.t;
         vec3 n = surface_normal(o + t * u);
         r.hit = vec4(n, t);

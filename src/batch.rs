@@ -67,7 +67,8 @@ impl Shard {
 
     /// The shard from `--shard I/N` when given; otherwise from the
     /// scheduler's environment: a SLURM array (`SLURM_ARRAY_TASK_ID -
-    /// SLURM_ARRAY_TASK_MIN` of `SLURM_ARRAY_TASK_COUNT`) or a Kubernetes
+    /// SLURM_ARRAY_TASK_MIN` (divided by `SLURM_ARRAY_TASK_STEP` when set)
+    /// of `SLURM_ARRAY_TASK_COUNT`) or a Kubernetes
     /// Indexed Job (`JOB_COMPLETION_INDEX` of `shard_count`); otherwise
     /// every frame.
     pub fn resolve(explicit: Option<&str>, shard_count: Option<u64>, env: impl Fn(&str) -> Option<String>) -> Result<Shard> {
@@ -85,7 +86,8 @@ impl Shard {
                 bail!("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not");
             };
             let count = parse("SLURM_ARRAY_TASK_COUNT", &count)?;
-            let Some(index) = id.checked_sub(min) else {
+            let step = env("SLURM_ARRAY_TASK_STEP").map(|v| parse("SLURM_ARRAY_TASK_STEP", &v)).transpose()?.unwrap_or(1).max(1);
+            let Some(index) = id.checked_sub(min).map(|d| d / step) else {
                 bail!("SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}");
             };
             return Shard::new(index, count, "SLURM array");
@@ -144,6 +146,15 @@ mod tests {
             _ => None,
         };
         assert_eq!(Shard::resolve(None, None, slurm).unwrap(), Shard { index: 2, count: 4 });
+        // --array=10-40:10 gives ids 10, 20, 30, 40.
+        let stepped = |k: &str| match k {
+            "SLURM_ARRAY_TASK_ID" => Some("30".to_string()),
+            "SLURM_ARRAY_TASK_MIN" => Some("10".to_string()),
+            "SLURM_ARRAY_TASK_STEP" => Some("10".to_string()),
+            "SLURM_ARRAY_TASK_COUNT" => Some("4".to_string()),
+            _ => None,
+        };
+        assert_eq!(Shard::resolve(None, None, stepped).unwrap(), Shard { index: 2, count: 4 });
         let k8s = |k: &str| (k == "JOB_COMPLETION_INDEX").then(|| "1".to_string());
         assert_eq!(Shard::resolve(None, Some(5), k8s).unwrap(), Shard { index: 1, count: 5 });
         assert!(Shard::resolve(None, None, k8s).is_err(), "Kubernetes needs --shard-count");
@@ -240,7 +251,7 @@ pub fn run(
             log,
             "{frame},{:.6},{},{},{},{},{:.4},{:.2},{:.5},{},{:.1}",
             frame as f64 / fps,
-            path.display(),
+            format!("\"{}\"", path.display().to_string().replace('"', "\"\"")),
             job.width,
             job.height,
             job.method,

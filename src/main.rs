@@ -305,8 +305,8 @@ fn run(cli: Cli) -> Result<()> {
             let scene = load_scene(&scene, &march)?;
             let (width, height) = size.unwrap_or((scene.camera.width, scene.camera.height));
             if let Some(range) = batch.frames {
-                if heatmap.is_some() || !aov.is_empty() || stats.is_some() {
-                    bail!("--frames writes shaded PNGs and a statistics CSV (--csv); --heatmap, --aov and --stats are for single frames");
+                if heatmap.is_some() || !aov.is_empty() || stats.is_some() || aov_output.is_some() || steps_max.is_some() {
+                    bail!("--frames writes shaded PNGs and a statistics CSV (--csv); --heatmap, --steps-max, --aov, --aov-output and --stats are for single frames");
                 }
                 if !(batch.fps.is_finite() && batch.fps > 0.0) {
                     bail!("--fps must be positive, got {}", batch.fps);
@@ -452,6 +452,9 @@ fn run(cli: Cli) -> Result<()> {
                 write_atomic(&path, &serde_json::to_vec_pretty(&report)?)?;
             }
             if let Some(path) = heatmap_grid {
+                // The grid shows the first variant's settings.
+                let mut scene = scene.clone();
+                scene.marching.quad = variants[0].quad;
                 let mut panels = Vec::new();
                 for &method in &methods {
                     let job = RenderJob::new(scene.clone(), method, size, PathBuf::new(), timeout);

@@ -190,11 +190,15 @@ pub fn plot(points: &[Point], title: &str, png: &Path, svg: &Path) -> Result<()>
     // Drawn to temporary names, then renamed: a plot is whole or absent.
     let tmp_png = dir.join(format!(".tradeoff.{}.png", std::process::id()));
     let tmp_svg = dir.join(format!(".tradeoff.{}.svg", std::process::id()));
-    draw(points, title, plotters::prelude::BitMapBackend::new(&tmp_png, (960, 640)))?;
-    draw(points, title, plotters::prelude::SVGBackend::new(&tmp_svg, (960, 640)))?;
-    std::fs::rename(&tmp_png, png).with_context(|| format!("writing {}", png.display()))?;
-    std::fs::rename(&tmp_svg, svg).with_context(|| format!("writing {}", svg.display()))?;
-    Ok(())
+    let drawn = draw(points, title, plotters::prelude::BitMapBackend::new(&tmp_png, (960, 640)))
+        .and_then(|()| draw(points, title, plotters::prelude::SVGBackend::new(&tmp_svg, (960, 640))))
+        .and_then(|()| std::fs::rename(&tmp_png, png).with_context(|| format!("writing {}", png.display())))
+        .and_then(|()| std::fs::rename(&tmp_svg, svg).with_context(|| format!("writing {}", svg.display())));
+    if drawn.is_err() {
+        let _ = std::fs::remove_file(&tmp_png);
+        let _ = std::fs::remove_file(&tmp_svg);
+    }
+    drawn
 }
 
 fn draw<B: plotters::prelude::DrawingBackend>(points: &[Point], title: &str, backend: B) -> Result<()>

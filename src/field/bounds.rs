@@ -262,11 +262,12 @@ pub fn first_root(g: f64, a: f64, b: f64) -> f64 {
 /// outside (`v < 0`), of the lower bound when inside (Algorithm 1). A
 /// relaxed upper bound that starts at or above 0 allows no step.
 pub fn next_root(b: &Bound) -> f64 {
-    if b.v < 0.0 {
+    if b.v > 0.0 {
+        first_root(b.v, -b.a_lo, -b.b_lo)
+    } else {
+        // On the surface (v = 0) either side may follow: no step.
         let start = b.hi(0.0);
         if start >= 0.0 { 0.0 } else { first_root(-start, b.a_hi, b.b_hi) }
-    } else {
-        first_root(b.v, -b.a_lo, -b.b_lo)
     }
 }
 

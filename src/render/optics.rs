@@ -100,6 +100,9 @@ pub fn trace(renderer: &mut Renderer, method: Method, rays: &[GpuRay], material:
 }
 
 fn trace_generations(renderer: &mut Renderer, method: Method, rays: &[GpuRay], material: Dielectric) -> Result<Traced> {
+    if matches!(method, Method::LinearBisection | Method::Raa) {
+        anyhow::bail!("{method} marches opaque scenes only; use an Algorithm 1 method for reflection and refraction");
+    }
     let scene: Scene = renderer.scene().clone();
     let eps = 10.0 * scene.refine_tolerance();
     let mut out = Traced {
@@ -128,7 +131,9 @@ fn trace_generations(renderer: &mut Renderer, method: Method, rays: &[GpuRay], m
             let o = DVec3::new(ray.o[0].into(), ray.o[1].into(), ray.o[2].into());
             let d = DVec3::new(ray.d[0].into(), ray.d[1].into(), ray.d[2].into());
             if ray.d[3] < ray.o[3] || res.counts[3] & FLAG_HIT == 0 {
-                out.color[path.pixel] += path.weight * environment(&scene, d);
+                // Inside, the light crossed the rest of the bounds.
+                let crossed = if path.inside { (f64::from(ray.d[3]) - f64::from(ray.o[3])).max(0.0) } else { 0.0 };
+                out.color[path.pixel] += path.weight * (-material.absorption * crossed).exp() * environment(&scene, d);
                 continue;
             }
             let t = f64::from(res.hit[3]);
