@@ -195,7 +195,7 @@ pub fn run(
 
     use anyhow::Context as _;
 
-    use crate::output::{MarchStats, png_bytes, write_atomic};
+    use crate::output::{png_bytes, write_atomic};
     use crate::render::Renderer;
     use crate::render::rays::camera_rays;
 
@@ -246,7 +246,7 @@ pub fn run(
         let out = crate::render::offscreen::march_frame(&mut renderer, job.method, &rays)?;
         let image = crate::output::Frame::from_results(job.width, job.height, &out.results, &pixels);
         write_atomic(&path, &png_bytes(&image.shaded())?)?;
-        let stats = MarchStats::of(out.results.iter().zip(&pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| r), out.gpu_ns);
+        let stats = crate::render::offscreen::pixel_stats(&out, &pixels);
         writeln!(
             log,
             "{frame},{:.6},{},{},{},{},{:.4},{:.2},{:.5},{},{:.1}",

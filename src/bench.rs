@@ -68,8 +68,8 @@ impl Variant {
     /// `method` on `scene`?
     fn matters(&self, other: &Variant, method: Method, scene: &Scene) -> bool {
         let extends = method.exp_upper().is_some() || matches!(method, Method::LinearTaylor | Method::QuadraticTaylor);
-        let gaussian = |p: &Primitive| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. });
-        let (gaussians, compacts) = (scene.primitives().any(gaussian), scene.primitives().any(|p| !gaussian(p)));
+        let gaussians = scene.has_gaussians();
+        let compacts = scene.primitives().any(|p| !matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. }));
         self.cull != other.cull
             || self.generic != other.generic
             || (extends && compacts && self.quad.extension != other.quad.extension)
@@ -288,8 +288,7 @@ fn run_one(
             let first: Vec<Option<f64>> = reference.iter().map(|c| c.first().copied()).collect();
             (accuracy(&out.results, &first, late, early), rays.max(1) as f64)
         };
-        let has_gaussians = scene.primitives().any(|p| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. }));
-        let validity_kept = (method == Method::Quadratic && has_gaussians).then(|| validity_kept(scene, method, variant.quad, ray_set));
+        let validity_kept = (method == Method::Quadratic && scene.has_gaussians()).then(|| validity_kept(scene, method, variant.quad, ray_set));
         Ok(MethodReport {
             method: label,
             steps_per_ray: stats.steps_per_ray,

@@ -27,7 +27,7 @@
 
 use glam::DVec3;
 
-use super::quad::{QuadOptions, QuadSettings, ValidityScope, field_quadratic};
+use super::quad::{QuadOptions, QuadSettings, field_quadratic};
 use super::{Field, KernelEval, PrimEval, point_on_ray};
 use crate::method::Method;
 
@@ -405,10 +405,7 @@ pub fn field_bound(field: &Field, method: Method, quad: QuadSettings, o: DVec3, 
         Method::Linear | Method::LinearBisection => field_linear(field, o, u, t0, t1),
         Method::Quadratic | Method::QuadraticRelaxedT0 | Method::QuadraticRelaxedMax => {
             let exp_upper = method.exp_upper().expect("a bottom-up quadratic method");
-            let validity_floor = match quad.validity {
-                ValidityScope::Significant => crate::scene::GAUSSIAN_BOUNDS_FRACTION * field.iso,
-                ValidityScope::Every => 0.0,
-            };
+            let validity_floor = quad.validity_floor(field.iso);
             field_quadratic(field, o, u, t0, t1, QuadOptions { exp_upper, extension: quad.extension, validity_floor })
         }
         Method::Sphere | Method::Segment | Method::Raa => return None,

@@ -77,6 +77,17 @@ pub struct QuadSettings {
     pub validity: ValidityScope,
 }
 
+impl QuadSettings {
+    /// The peak along a ray below which a Gaussian imposes no validity
+    /// interval, for a scene of iso value `iso` (0: every Gaussian does).
+    pub fn validity_floor(&self, iso: f64) -> f64 {
+        match self.validity {
+            ValidityScope::Significant => crate::scene::GAUSSIAN_BOUNDS_FRACTION * iso,
+            ValidityScope::Every => 0.0,
+        }
+    }
+}
+
 impl Default for QuadSettings {
     fn default() -> Self {
         QuadSettings { extension: true, validity: ValidityScope::Significant }

@@ -13,7 +13,7 @@ use anyhow::{Result, bail};
 use ash::vk;
 
 use crate::field::Field;
-use crate::field::quad::{QuadSettings, ValidityScope};
+use crate::field::quad::QuadSettings;
 use crate::gpu::{Buffer, ComputePipeline, Context, Submitter};
 use crate::layout::{self, GpuBound, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuResult, GpuRay};
 use crate::method::Method;
@@ -174,10 +174,7 @@ pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
 }
 
 fn globals(scene: &Scene, growth: f64, quad: QuadSettings) -> GpuGlobals {
-    let validity_floor = match quad.validity {
-        ValidityScope::Significant => scene::GAUSSIAN_BOUNDS_FRACTION * scene.iso,
-        ValidityScope::Every => 0.0,
-    };
+    let validity_floor = quad.validity_floor(scene.iso);
     let rgb = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
     GpuGlobals {
         march: [

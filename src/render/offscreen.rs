@@ -68,9 +68,13 @@ pub fn render_frame(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Frame, March
     renderer.timeout = job.timeout;
     let (rays, pixels) = camera_rays(&job.scene.camera, job.width, job.height, &job.scene.bounds);
     let out = march_frame(&mut renderer, job.method, &rays)?;
-    let counted = out.results.iter().zip(&pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| r);
-    let stats = MarchStats::of(counted, out.gpu_ns);
-    Ok((Frame::from_results(job.width, job.height, &out.results, &pixels), stats))
+    Ok((Frame::from_results(job.width, job.height, &out.results, &pixels), pixel_stats(&out, &pixels)))
+}
+
+/// Statistics of a frame's march over its pixels (not the padding rays
+/// that fill the last 8x8 tiles).
+pub fn pixel_stats(out: &super::MarchOutput, pixels: &[Option<u32>]) -> MarchStats {
+    MarchStats::of(out.results.iter().zip(pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| r), out.gpu_ns)
 }
 
 /// Marches a frame's camera rays. A dielectric scene (transparency with an

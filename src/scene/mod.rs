@@ -182,6 +182,11 @@ impl Scene {
         validate(&file, name)
     }
 
+    /// Whether any primitive has a Gaussian kernel (the rest are compact).
+    pub fn has_gaussians(&self) -> bool {
+        self.primitives().any(|p| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. }))
+    }
+
     pub fn primitive_count(&self) -> usize {
         self.groups.iter().map(Vec::len).sum()
     }
