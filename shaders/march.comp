@@ -25,22 +25,30 @@ void main() {
     } else {
         GpuMarchState s = states[i];
         if ((s.n.w & FLAG_DONE) != 0u) return;
-        m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w, s.node.x, s.node.y, s.node.z, s.v.w, s.light.w, s.light.rgb, s.trans.rgb);
+        m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w, s.node.x, s.node.y, s.node.z, s.v.w, s.light.w, s.light.rgb, s.trans.rgb,
+                  s.refine.x, s.refine.y, uint(s.refine.z));
         g_evals = s.n.y;
     }
     // What remains of the ray: bisection revisits it all, Algorithm 1 only
     // from the last point outside (refinement starts there).
     bool bisects = SC_METHOD == METHOD_LINEAR_BISECTION || SC_METHOD == METHOD_RAA;
-    cull_to_ray(o, u, bisects ? ray.o.w : m.t_prev, ray.d.w);
+    float from = bisects ? ray.o.w : m.t_prev;
+    // A transparent march steps on while it refines a crossing behind.
+    if ((m.flags & FLAG_REFINING) != 0u) from = min(from, m.ra);
+    cull_to_ray(o, u, from, ray.d.w);
+    // One step or one bisection of a refinement per turn (slice_steps turns).
     for (uint k = 0u; k < push.slice_steps && (m.flags & FLAG_DONE) == 0u; ++k) {
-        if (SC_METHOD == METHOD_LINEAR_BISECTION || SC_METHOD == METHOD_RAA) {
+        if ((m.flags & FLAG_REFINING) != 0u) {
+            refine_turn(o, u, m);
+        } else if (SC_METHOD == METHOD_LINEAR_BISECTION || SC_METHOD == METHOD_RAA) {
             bisection_step(o, u, ray.o.w, ray.d.w, m);
         } else {
             march_step(o, u, ray.d.w, m);
         }
     }
     states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, m.first), uvec4(m.steps, g_evals, m.refine_evals, m.flags),
-                              uvec4(m.depth, m.index, m.crossings, 0u), vec4(m.color, m.last), vec4(m.transmittance, 0.0));
+                              uvec4(m.depth, m.index, m.crossings, 0u), vec4(m.color, m.last), vec4(m.transmittance, 0.0),
+                              vec4(m.ra, m.rb, float(m.bisections), 0.0));
     if ((m.flags & FLAG_DONE) == 0u) {
         atomicAdd(active_rays, 1u);
         return;

@@ -80,7 +80,10 @@ gpu_structs! {
     /// `v.w`: the first crossing (transparent rendering).
     /// `light`: transparent rendering's colour so far (rgb) and the last
     /// crossing (w); `trans`: its transmittance so far (rgb).
-    struct GpuMarchState { v: Vec4, n: UVec4, node: UVec4, light: Vec4, trans: Vec4 }
+    /// `refine`: the bracket of a crossing being refined (x, y; one
+    /// bisection per loop turn, so that no dispatch runs more than one
+    /// pass over the primitives per turn) and its bisections so far (z).
+    struct GpuMarchState { v: Vec4, n: UVec4, node: UVec4, light: Vec4, trans: Vec4, refine: Vec4 }
 
     /// Scene-wide constants. `march`: x iso, y minimum step, z refinement
     /// tolerance, w global Lipschitz bound (sphere tracing).
@@ -109,6 +112,15 @@ pub const FLAG_OUT_OF_STEPS: u32 = 2;
 pub const FLAG_DONE: u32 = 4;
 /// Marching state: the current point is inside the surface (transparency).
 pub const FLAG_INSIDE: u32 = 8;
+
+/// Marching state: a crossing is bracketed by `GpuMarchState::refine` and
+/// being bisected.
+pub const FLAG_REFINING: u32 = 16;
+/// Marching state: the crossing being refined enters the surface.
+pub const FLAG_REFINE_ENTERING: u32 = 32;
+/// Marching state: the march reached its end; done once the pending
+/// refinement is.
+pub const FLAG_ENDED: u32 = 64;
 
 /// Crossings recorded per ray in transparent rendering (more are counted).
 pub const MAX_CROSSINGS: u32 = 32;
@@ -159,6 +171,9 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("FLAG_OUT_OF_STEPS", FLAG_OUT_OF_STEPS),
     ("FLAG_DONE", FLAG_DONE),
     ("FLAG_INSIDE", FLAG_INSIDE),
+    ("FLAG_REFINING", FLAG_REFINING),
+    ("FLAG_REFINE_ENTERING", FLAG_REFINE_ENTERING),
+    ("FLAG_ENDED", FLAG_ENDED),
     ("MAX_CROSSINGS", MAX_CROSSINGS),
 ];
 

@@ -3,9 +3,12 @@
 // overrides it; a crossing is registered when f >= 0 and refined by
 // bisection (BENCHMARKS.md, "Hits and the minimum step").
 //
-// A march runs in slices of a bounded number of steps, its state kept in
-// GpuMarchState between dispatches, so no dispatch runs unboundedly long
-// (lavapipe also caps the loop iterations of one invocation at 65535).
+// A march runs in slices of a bounded number of loop turns, its state kept
+// in GpuMarchState between dispatches, so no dispatch runs unboundedly long
+// (lavapipe also caps the loop iterations of one invocation at 65535). A
+// turn makes at most a few passes over the primitives: a step, or one
+// bisection of a crossing's refinement, which resumes across turns and
+// slices like the march itself.
 #ifndef MARCHERS_GLSL
 #define MARCHERS_GLSL
 
@@ -28,28 +31,29 @@ struct March {
     float last;         // the last crossing
     vec3 color;         // light gathered so far, front to back
     vec3 transmittance; // what still passes
+    // Refinement (FLAG_REFINING): the crossing lies in (ra, rb].
+    float ra;
+    float rb;
+    uint bisections;
 };
 
 // The ray being marched (its crossings go to crossings[]).
 uint g_ray = 0u;
 
-// Bisection between a and b, where f changes sign (a on the side given by
-// a_inside), down to the refinement tolerance; returns the end past the
-// crossing, so a crossing is never reported early.
-float refine_crossing(vec3 o, vec3 u, float a, float b, bool a_inside) {
-    float tol = globals.march.z;
-    for (int i = 0; i < 64 && b - a > tol; ++i) {
-        float m = 0.5 * (a + b);
-        if (m <= a || m >= b) break;
-        if ((field(o + m * u) >= 0.0) == a_inside) a = m; else b = m;
-    }
-    return b;
-}
-
 March march_start(float tmin, float tmax) {
-    March m = March(tmin, tmin, tmax - tmin, 0u, 0u, 0u, 0u, 0u, 0u, -1.0, tmin, vec3(0.0), vec3(1.0));
+    March m = March(tmin, tmin, tmax - tmin, 0u, 0u, 0u, 0u, 0u, 0u, -1.0, tmin, vec3(0.0), vec3(1.0), 0.0, 0.0, 0u);
     if (!(tmax >= tmin)) m.flags = FLAG_DONE;
     return m;
+}
+
+// A crossing between a and b (f changes sign; `entering`: f < 0 at a) is
+// to be refined by bisection, one halving per loop turn (refine_turn).
+void begin_refinement(float a, float b, bool entering, inout March m) {
+    m.ra = a;
+    m.rb = b;
+    m.bisections = 0u;
+    m.flags |= FLAG_REFINING;
+    if (entering) m.flags |= FLAG_REFINE_ENTERING; else m.flags &= ~FLAG_REFINE_ENTERING;
 }
 
 // Transparent rendering: a crossing at tc (Section 7.2). It is recorded;
@@ -107,25 +111,24 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
     // sign change from there.
     if (SC_SECONDARY != 0u && m.steps == 1u && f > 0.0) m.flags |= FLAG_INSIDE;
     // A crossing: f >= 0 entering, f <= 0 again leaving (BENCHMARKS.md).
+    // Found after the first step, it lies in (t_prev, t] and is refined
+    // over the next loop turns; a transparent march steps on meanwhile.
     bool inside = (m.flags & FLAG_INSIDE) != 0u;
     if (inside ? f <= 0.0 : f >= 0.0) {
-        float tc = m.t;
-        if (m.steps > 1u) {
-            uint before = g_evals;
-            tc = refine_crossing(o, u, m.t_prev, m.t, inside);
-            m.refine_evals += g_evals - before;
-        }
         m.flags |= FLAG_HIT;
-        if (SC_TRANSPARENT == 0u) {
-            m.t = tc;
+        if (m.steps > 1u) {
+            begin_refinement(m.t_prev, m.t, !inside, m);
+            if (SC_TRANSPARENT == 0u) return;
+        } else if (SC_TRANSPARENT == 0u) {
             m.flags |= FLAG_DONE;
             return;
+        } else {
+            on_crossing(o, u, m.t, !inside, m);
         }
-        on_crossing(o, u, tc, !inside, m);
         m.flags ^= FLAG_INSIDE;
     }
     if (m.t >= tmax) {
-        m.flags |= FLAG_DONE;
+        m.flags |= (m.flags & FLAG_REFINING) != 0u ? FLAG_ENDED : FLAG_DONE;
         return;
     }
     // `step` is proven free of crossings. Reaching the end with it ends the
@@ -135,8 +138,31 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
     step = max(step, globals.march.y);
     m.t_prev = m.t;
     m.t = min(m.t + step, tmax);
-    if (m.t >= tmax && safe >= tmax - m.t_prev) m.flags |= FLAG_DONE;
+    if (m.t >= tmax && safe >= tmax - m.t_prev) m.flags |= (m.flags & FLAG_REFINING) != 0u ? FLAG_ENDED : FLAG_DONE;
     m.window = globals.tuning.x * step;
+}
+
+// One loop turn of a refinement: halve the bracket down to the tolerance
+// (at most 64 times), keeping the crossing in (ra, rb]; then report the
+// end past the crossing, so a crossing is never reported early.
+void refine_turn(vec3 o, vec3 u, inout March m) {
+    float mid = 0.5 * (m.ra + m.rb);
+    if (m.bisections < 64u && m.rb - m.ra > globals.march.z && mid > m.ra && mid < m.rb) {
+        uint before = g_evals;
+        bool a_inside = (m.flags & FLAG_REFINE_ENTERING) == 0u;
+        if ((field(o + mid * u) >= 0.0) == a_inside) m.ra = mid; else m.rb = mid;
+        m.refine_evals += g_evals - before;
+        m.bisections += 1u;
+        return;
+    }
+    m.flags &= ~FLAG_REFINING;
+    if (SC_TRANSPARENT == 0u) {
+        m.t = m.rb;
+        m.flags |= FLAG_DONE;
+        return;
+    }
+    on_crossing(o, u, m.rb, (m.flags & FLAG_REFINE_ENTERING) != 0u, m);
+    if ((m.flags & FLAG_ENDED) != 0u) m.flags |= FLAG_DONE;
 }
 
 // Leaves the current bisection node for the next one in front-to-back
@@ -185,10 +211,8 @@ void bisection_step(vec3 o, vec3 u, float tmin, float tmax, inout March m) {
     }
     if (len <= globals.march.y || m.depth >= 30u) {
         if (field(o + b * u) >= 0.0) {
-            uint before = g_evals;
-            m.t = refine_crossing(o, u, a, b, false);
-            m.refine_evals += g_evals - before;
-            m.flags |= FLAG_DONE | FLAG_HIT;
+            m.flags |= FLAG_HIT;
+            begin_refinement(a, b, true, m);
             return;
         }
         bisection_advance(m);

@@ -53,31 +53,50 @@ const PUSH_CONSTANT_BYTES: u32 = 12;
 
 /// Loop iterations one invocation may run per dispatch. lavapipe silently
 /// ends any invocation after 65535 loop iterations (all loops together), so
-/// a march runs in slices that stay well below that, resuming from its saved
+/// a march runs in slices that stay below that, resuming from its saved
 /// state; on every device this also bounds the length of one dispatch.
-const LOOP_BUDGET: usize = 32_768;
-/// Refinement runs at most 64 bisection steps.
-const REFINE_ITERATIONS: usize = 64;
+const LOOP_BUDGET: usize = 60_000;
+/// Iterations of the small loops (lights, bisection-tree moves) a turn and a
+/// slice may add beyond their passes over the primitives.
+const SMALL_LOOPS: usize = 64;
 
-/// The most primitives one marching step can visit within the loop budget.
-pub fn max_primitives() -> usize {
-    (LOOP_BUDGET - (REFINE_ITERATIONS + 3) - 34) / (REFINE_ITERATIONS + 5)
+/// Loop iterations of one turn of the march loop: a step makes at most
+/// three passes over the primitives (bisection: the range, and the field at
+/// both ends; transparent: the bound and a crossing's normal), a
+/// refinement turn one or two.
+fn turn_cost(primitives: usize, lights: usize) -> usize {
+    3 * primitives + lights + SMALL_LOOPS
 }
 
-/// Marching steps per slice for a scene of `primitives` primitives: each
-/// step loops over the primitives about twice (bound and value) plus up to
-/// 30 bisection-tree moves, and the last one may also refine and shade.
-pub fn slice_steps(primitives: usize) -> Result<u32> {
-    // Culling, refinement and shading once per slice.
-    let fixed = (REFINE_ITERATIONS + 3) * (primitives + 1);
-    let per_step = 2 * primitives + 34;
-    if primitives > max_primitives() {
+/// Once per slice: culling, and the final normal and shading.
+fn slice_cost(primitives: usize, lights: usize) -> usize {
+    2 * (primitives + 1) + lights + SMALL_LOOPS
+}
+
+/// The most primitives one loop turn can visit within the loop budget.
+pub fn max_primitives() -> usize {
+    // With up to four lights (more lights lower it: see slice_steps).
+    (LOOP_BUDGET - 2 * SMALL_LOOPS - 2 - 8) / 5
+}
+
+/// Loop turns (steps, or bisections of a refinement) per slice for a
+/// scene of `primitives` primitives and `lights` lights.
+pub fn slice_steps(primitives: usize, lights: usize) -> Result<u32> {
+    let fixed = slice_cost(primitives, lights);
+    let per_turn = turn_cost(primitives, lights);
+    if primitives > max_primitives() || fixed + per_turn > LOOP_BUDGET {
         bail!(
-            "{primitives} primitives are more than one marching step can visit within the per-dispatch loop budget ({LOOP_BUDGET} iterations); at most {} are supported until an acceleration structure exists",
+            "{primitives} primitives and {lights} lights are more than one marching step can visit within the per-dispatch loop budget ({LOOP_BUDGET} iterations); at most {} are supported until an acceleration structure exists",
             max_primitives()
         );
     }
-    Ok(((LOOP_BUDGET - fixed) / per_step) as u32)
+    Ok(((LOOP_BUDGET - fixed) / per_turn) as u32)
+}
+
+/// A march's loop turns at most: its steps, and up to 65 turns refining the
+/// crossing each step may find.
+fn max_turns(max_steps: u32) -> u64 {
+    u64::from(max_steps) * 66 + 2
 }
 
 #[cfg(test)]
@@ -85,8 +104,9 @@ mod tests {
     #[test]
     fn slices_fit_the_loop_budget_up_to_the_primitive_limit() {
         let n = super::max_primitives();
-        assert!(super::slice_steps(n).unwrap() >= 1);
-        assert!(super::slice_steps(n + 1).is_err());
+        assert!(n >= 10_000);
+        assert!(super::slice_steps(n, 4).unwrap() >= 1);
+        assert!(super::slice_steps(n + 1, 4).is_err());
     }
 }
 
@@ -238,7 +258,8 @@ impl Renderer {
                 ctx.info.name
             );
         }
-        let slice_steps = slice_steps(scene.primitive_count()).map_err(|e| anyhow::anyhow!("{}: groups: {e}", scene.source))?;
+        let slice_steps =
+            slice_steps(scene.primitive_count(), scene.lights.len()).map_err(|e| anyhow::anyhow!("{}: groups: {e}", scene.source))?;
         let prims = gpu_primitives(scene);
         let lights: Vec<GpuLight> = scene
             .lights
@@ -371,13 +392,13 @@ impl Renderer {
         let mut results = Vec::with_capacity(rays.len());
         let mut crossings = Vec::new();
         let mut gpu_ns = Some(0.0);
-        // Every slice but a ray's last takes `slice_steps` steps.
-        let max_slices = self.scene.marching.max_steps / self.slice_steps + 2;
+        // Every slice but a ray's last takes `slice_steps` turns.
+        let max_slices = max_turns(self.scene.marching.max_steps) / u64::from(self.slice_steps) + 2;
         for tile in rays.chunks(TILE_RAYS) {
             self.rays.write(0, tile)?;
             for slice in 0.. {
                 if slice > max_slices {
-                    bail!("rays still marching after {slice} slices of {} steps: a marcher ignores its step budget", self.slice_steps);
+                    bail!("rays still marching after {slice} slices of {} turns: a marcher ignores its step budget", self.slice_steps);
                 }
                 self.active.write(0, &[0u32])?;
                 let push: [u32; 3] = [tile.len() as u32, u32::from(slice == 0), self.slice_steps];
