@@ -227,10 +227,12 @@ pub fn run(
             .progress_chars("=> "),
     );
     bar.set_message(format!("shard {}/{}", shard.index, shard.count));
-    let mut renderer = Renderer::new(ctx, &job.scene)?;
+    // Coordinates centred on the camera, frame by frame (f32 precision).
+    let still = job.scene.recentred_on_camera();
+    let mut renderer = Renderer::new(ctx, &still)?;
     renderer.timeout = job.timeout;
     let animated = !job.scene.animation.is_static();
-    let (mut rays, mut pixels) = camera_rays(&job.scene.camera, job.width, job.height, &job.scene.bounds);
+    let (mut rays, mut pixels) = camera_rays(&still.camera, job.width, job.height, &still.bounds);
     for (frame, path) in todo {
         if stop.load(Ordering::SeqCst) {
             summary.interrupted = true;
@@ -239,7 +241,7 @@ pub fn run(
         let started = std::time::Instant::now();
         if animated {
             // The scene at this frame's time: primitives, camera, bounds.
-            let posed = job.scene.at_time(frame as f64 / fps);
+            let posed = job.scene.at_time(frame as f64 / fps).recentred_on_camera();
             renderer.set_scene(&posed)?;
             (rays, pixels) = camera_rays(&posed.camera, job.width, job.height, &posed.bounds);
         }

@@ -227,6 +227,8 @@ pub fn run(
     seed: u64,
     timeout: std::time::Duration,
 ) -> Result<BenchReport> {
+    // The GPU's coordinates centred on the box the rays aim at (f32).
+    let scene = &scene.recentred(scene.bounds.center());
     let ray_set = protocol_rays(&scene.bounds, rays, seed);
     let transparent = scene.transparency.is_some();
     let reference = reference_crossings(scene, &ray_set, !transparent, true);

@@ -72,6 +72,8 @@ pub struct Point {
 
 /// Runs the sweep; `progress` gets the number of settings done.
 pub fn run(ctx: &Arc<Context>, scene: &Scene, sweep: &Sweep, timeout: std::time::Duration, mut progress: impl FnMut(usize)) -> Result<Vec<Point>> {
+    // The GPU's coordinates centred on the box the rays aim at (f32).
+    let scene = &scene.recentred(scene.bounds.center());
     let rays = protocol_rays(&scene.bounds, sweep.rays, sweep.seed);
     let transparent = scene.transparency.is_some();
     let reference = reference_crossings(scene, &rays, !transparent, false);

@@ -5,9 +5,11 @@
 //!
 //! What runs in CI and why: each case uses a few hundred rays on scenes of
 //! a few blobs, enough to meet every code path (supports entered and left,
-//! sums, maxes, both kernels) in seconds; the primitive count is swept up to
-//! the per-step loop budget (473) on few rays, since larger scenes need an
-//! acceleration structure that does not exist yet.
+//! sums, maxes, both kernels) in seconds; the primitive count is swept
+//! from 1 to 10,000 on few rays (the f64 reference visits every primitive
+//! at each of its many small steps); scenes beyond one loop turn's budget
+//! (`render::max_primitives`, 11,972) are refused until an acceleration
+//! structure exists.
 
 mod common;
 
@@ -37,10 +39,24 @@ fn assert_finite(results: &[GpuResult], what: &str) {
 /// to `tol` (scene units; a miss, a false hit or a late hit beyond `late`
 /// counts against `allowed`, the measured regression bound).
 fn check_all(ctx: &std::sync::Arc<isomarch::gpu::Context>, s: &Scene, rays: &[GpuRay], tol: f64, late: f64, allowed: impl Fn(Method) -> usize, what: &str) {
+    check_methods(ctx, s, rays, METHODS, tol, late, allowed, what);
+}
+
+#[allow(clippy::too_many_arguments)]
+fn check_methods(
+    ctx: &std::sync::Arc<isomarch::gpu::Context>,
+    s: &Scene,
+    rays: &[GpuRay],
+    methods: &[Method],
+    tol: f64,
+    late: f64,
+    allowed: impl Fn(Method) -> usize,
+    what: &str,
+) {
     let reference = reference_hits(s, rays, false);
     let mut renderer = Renderer::new(ctx, s).unwrap();
     renderer.shade = false;
-    for &method in METHODS {
+    for &method in methods {
         let out = renderer.march(method, rays, |_| {}).unwrap();
         assert_finite(&out.results, &format!("{what} {method}"));
         let acc = accuracy(&out.results, &reference, late, tol);
@@ -203,24 +219,98 @@ fn minimum_steps_and_budgets_at_their_limits() {
     assert_no_validation(&ctx);
 }
 
+/// `n` compact blobs in a cube whose side grows with n, so density stays
+/// moderate.
+fn blobs(n: usize) -> Scene {
+    let side = 2.0 * (n as f64).cbrt() + 2.0;
+    let mut rng_state = 12345u64 + n as u64;
+    let mut next = || {
+        rng_state = rng_state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (rng_state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let prims = (0..n).map(|_| compact(DVec3::new(next(), next(), next()) * side, 1.0 + next())).collect();
+    let mut s = scene(vec![prims], 0.5, Method::Segment, 1.0);
+    s.marching.min_step = 1e-4 * s.min_radius();
+    s
+}
+
 #[test]
-fn one_to_the_most_primitives_a_step_can_visit() {
+fn one_to_ten_thousand_primitives() {
     let ctx = gpu();
-    for n in [1usize, 64, 65, isomarch::render::max_primitives()] {
-        // n compact blobs in a cube whose side grows with n, so density
-        // stays moderate.
-        let side = 2.0 * (n as f64).cbrt() + 2.0;
-        let mut rng_state = 12345u64 + n as u64;
-        let mut next = || {
-            rng_state = rng_state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (rng_state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let prims = (0..n).map(|_| compact(DVec3::new(next(), next(), next()) * side, 1.0 + next())).collect();
-        let mut s = scene(vec![prims], 0.5, Method::Segment, 1.0);
-        s.marching.min_step = 1e-4 * s.min_radius();
-        let rays = protocol_rays(&s.bounds, 64, n as u64);
+    // Every method up to 1000 primitives; at 10,000 (every pass over the
+    // primitives is then one loop turn of its own, and the f64 reference
+    // costs seconds per ray set) the baselines and the two quadratic
+    // methods, on fewer rays.
+    for (n, rays, methods) in [
+        (1usize, 64usize, METHODS),
+        (64, 64, METHODS),
+        (65, 64, METHODS),
+        (1000, 64, METHODS),
+        (10_000, 24, &[Method::Segment, Method::LinearBisection, Method::QuadraticTaylor, Method::Quadratic][..]),
+    ] {
+        let s = blobs(n);
+        let rays = protocol_rays(&s.bounds, rays, n as u64);
         let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
-        check_all(&ctx, &s, &rays, tol, tol, |_| 0, &format!("{n} primitives"));
+        check_methods(&ctx, &s, &rays, methods, tol, tol, |_| 0, &format!("{n} primitives"));
+    }
+    // Beyond what one loop turn can visit: refused with a clear message.
+    let too_many = blobs(isomarch::render::max_primitives() + 1);
+    let err = Renderer::new(&ctx, &too_many).err().expect("too many primitives must be refused");
+    assert!(format!("{err:#}").contains("acceleration structure"), "{err:#}");
+    assert_no_validation(&ctx);
+}
+
+/// Largest |t - t_ref| over the pixels both hit, and how many pixels
+/// disagree on hitting at all.
+fn image_error(frame: &isomarch::output::Frame, rays_pixels: &[Option<u32>], reference: &[Option<f64>]) -> (f64, usize) {
+    let (mut worst, mut disagree) = (0.0f64, 0usize);
+    for (p, r) in rays_pixels.iter().zip(reference) {
+        let Some(p) = p else { continue };
+        let px = &frame.pixels[*p as usize];
+        let hit = (px.counts[3] & FLAG_HIT != 0).then_some(f64::from(px.hit[3]));
+        match (hit, r) {
+            (Some(t), Some(tr)) => worst = worst.max((t - tr).abs()),
+            (None, None) => {}
+            _ => disagree += 1,
+        }
+    }
+    (worst, disagree)
+}
+
+#[test]
+fn scenes_far_from_the_origin_keep_their_precision() {
+    use isomarch::render::offscreen::{RenderJob, render_frame};
+    use isomarch::render::rays::camera_rays;
+    let ctx = gpu();
+    let size = (48, 48);
+    for (seed, max) in [(50, false), (51, true)] {
+        let near = random_scene(seed, max, Method::Segment);
+        // What every run computes from: the scene around its camera, f64.
+        let local = near.recentred_on_camera();
+        let (rays, pixels) = camera_rays(&local.camera, size.0, size.1, &local.bounds);
+        let reference = reference_hits(&local, &rays, false);
+        let tol = 2.0 * near.refine_tolerance() + 2e-6 * near.bounds.diagonal();
+        for offset in [DVec3::new(1e5, 0.0, 0.0), DVec3::new(-5.7e4, 5.7e4, -5.7e4)] {
+            // The same scene and camera, moved far from the world's origin.
+            let far = near.recentred(-offset);
+            for method in [Method::Segment, Method::QuadraticTaylor, Method::Quadratic] {
+                let job = RenderJob::new(far.clone(), method, size, std::path::PathBuf::new(), std::time::Duration::from_secs(300));
+                let (frame, _) = render_frame(&ctx, &job).unwrap();
+                let (worst, disagree) = image_error(&frame, &pixels, &reference);
+                assert!(
+                    disagree == 0 && worst <= tol,
+                    "{method} at {offset}: {disagree} pixels disagree on hitting, worst distance error {worst:e} (bound {tol:e})"
+                );
+            }
+            // The test can tell: marched in world coordinates (f32 spacing
+            // 0.008 at 1e5), the same rays are far off.
+            let (world_rays, _) = camera_rays(&far.camera, size.0, size.1, &far.bounds);
+            let mut renderer = Renderer::new(&ctx, &far).unwrap();
+            let out = renderer.march(Method::Segment, &world_rays, |_| {}).unwrap();
+            let frame = isomarch::output::Frame::from_results(size.0, size.1, &out.results, &pixels);
+            let (worst, disagree) = image_error(&frame, &pixels, &reference);
+            assert!(disagree > 0 || worst > 10.0 * tol, "without re-centring: worst {worst:e}, {disagree} disagree");
+        }
     }
     assert_no_validation(&ctx);
 }

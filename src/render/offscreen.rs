@@ -64,9 +64,10 @@ pub struct RenderStats {
 
 /// Marches the job's camera rays and returns the frame.
 pub fn render_frame(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Frame, MarchStats)> {
-    let mut renderer = Renderer::new(ctx, &job.scene)?;
+    let scene = job.scene.recentred_on_camera();
+    let mut renderer = Renderer::new(ctx, &scene)?;
     renderer.timeout = job.timeout;
-    let (rays, pixels) = camera_rays(&job.scene.camera, job.width, job.height, &job.scene.bounds);
+    let (rays, pixels) = camera_rays(&scene.camera, job.width, job.height, &scene.bounds);
     let out = march_frame(&mut renderer, job.method, &rays)?;
     Ok((Frame::from_results(job.width, job.height, &out.results, &pixels), pixel_stats(&out, &pixels)))
 }

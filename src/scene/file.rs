@@ -147,6 +147,9 @@ pub enum PrimitiveFile {
         kernel: KernelFile,
         #[serde(default)]
         motion: Option<MotionFile>,
+        /// A factor on the kernel's radius (R or r) over scene time.
+        #[serde(default)]
+        radius_scale: Option<ScaleFile>,
     },
     /// The compact kernel of the unsigned distance to the plane
     /// `normal · p = offset`: a slab of half-width `radius`.
@@ -173,6 +176,21 @@ pub enum MotionFile {
     },
     /// `(time, offset)` keys, linear in between, held at both ends.
     Keyframes(Vec<(f64, [f64; 3])>),
+}
+
+/// A factor on a point's radius over scene time (seconds).
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub enum ScaleFile {
+    /// `1 + amplitude · sin(2π t / period + phase)`, amplitude in [0, 1).
+    Sine {
+        amplitude: f64,
+        period: f64,
+        #[serde(default)]
+        phase: f64,
+    },
+    /// `(time, factor)` keys, linear in between, held at both ends.
+    Keyframes(Vec<(f64, f64)>),
 }
 
 /// The camera eye's path over scene time (the target stays).

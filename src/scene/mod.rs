@@ -11,7 +11,7 @@ pub use file::SceneFile;
 
 pub mod animation;
 
-pub use animation::{Animation, CameraPath, Motion};
+pub use animation::{Animation, CameraPath, Motion, Scale};
 
 use crate::field::quad::{QuadSettings, ValidityScope};
 use crate::method::Method;
@@ -280,6 +280,29 @@ impl Checker<'_> {
             file::MotionFile::Keyframes(keys) => Motion::Keyframes(self.keyframes(field, keys)?),
         })
     }
+    fn scale(&self, field: &str, m: &file::ScaleFile) -> Result<Scale, SceneError> {
+        Ok(match m {
+            file::ScaleFile::Sine { amplitude, period, phase } => {
+                let amplitude = self.finite(&format!("{field}.amplitude"), *amplitude)?;
+                if !(0.0..1.0).contains(&amplitude) {
+                    return Err(self.err(format!("{field}.amplitude"), format!("must be in [0, 1) so the radius stays positive, got {amplitude}")));
+                }
+                Scale::Sine {
+                    amplitude,
+                    period: self.positive(&format!("{field}.period"), *period)?,
+                    phase: self.finite(&format!("{field}.phase"), *phase)?,
+                }
+            }
+            file::ScaleFile::Keyframes(keys) => {
+                let as_points: Vec<(f64, [f64; 3])> = keys.iter().map(|&(t, f)| (t, [f, 0.0, 0.0])).collect();
+                let checked = self.keyframes(field, &as_points)?;
+                for (i, &(_, f)) in keys.iter().enumerate() {
+                    self.positive(&format!("{field}[{i}].1"), f)?;
+                }
+                Scale::Keyframes(checked.iter().map(|&(t, p)| (t, p.x)).collect())
+            }
+        })
+    }
 }
 
 /// Checks every value of a parsed file and resolves defaults.
@@ -379,10 +402,17 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         for (pi, p) in g.primitives.iter().enumerate() {
             let at = format!("groups[{gi}].primitives[{pi}]");
             let prim = match p {
-                file::PrimitiveFile::Point { center, kernel, motion } => {
+                file::PrimitiveFile::Point { center, kernel, motion, radius_scale } => {
                     let center = c.vec3(&format!("{at}.center"), *center)?;
                     if let Some(m) = motion {
                         animation.primitives.push(((gi, pi), c.motion(&format!("{at}.motion"), m)?));
+                    }
+                    // The smallest size the point takes, for the f32 check.
+                    let mut shrink = 1.0;
+                    if let Some(m) = radius_scale {
+                        let scale = c.scale(&format!("{at}.radius_scale"), m)?;
+                        shrink = scale.min_factor().min(1.0);
+                        animation.radii.push(((gi, pi), scale));
                     }
                     let kernel = match kernel {
                         file::KernelFile::Compact { radius, weight } => {
@@ -397,7 +427,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
                             let weight = c.weight(&format!("{at}.kernel.weight"), *weight, default)?;
                             // The GPU computes in f32: the weight and the
                             // kernel's Lipschitz bound w·sqrt(2s)/r must fit.
-                            let slope = weight * (2.0 * s).sqrt() / r;
+                            let slope = weight * (2.0 * s).sqrt() / (r * shrink);
                             if !(weight.max(slope) < GPU_FLOAT_LIMIT) {
                                 return Err(c.err(
                                     format!("{at}.kernel"),
