@@ -7,7 +7,8 @@ set -euo pipefail
 ISOMARCH_PACKAGES=(
     mesa-vulkan-drivers libvulkan1   # lavapipe and the Vulkan loader
     vulkan-validationlayers          # the tests run with validation on
-    xvfb                             # window tests
+    xvfb xdotool                     # window tests: a display, and input sent to it
+    libx11-6 libx11-xcb1 libxcursor1 libxi6 libxrandr2 libxkbcommon-x11-0  # loaded by the window code
     cmake python3 g++ git            # shaderc is built from source by cargo
     glslang-tools spirv-tools vulkan-tools  # inspection: glslangValidator, spirv-dis, vulkaninfo
     ca-certificates curl pkg-config

@@ -18,5 +18,6 @@ pub mod output;
 pub mod render;
 pub mod scene;
 pub mod tradeoff;
+pub mod view;
 
 pub use method::Method;

@@ -124,6 +124,47 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
+    /// Open a window that plays the scene's animation in scene time.
+    ///
+    /// Controls: drag to orbit, wheel to zoom, Space pause/play, Left/Right
+    /// step one frame (1/fps s), M next marcher, H step heatmap, T
+    /// transparency on/off, S save a screenshot, Esc quit. The title shows
+    /// frame time, FPS, marcher and mean steps per ray. While the view moves,
+    /// frames are marched at a lower resolution that fits --preview-ms; at
+    /// rest the full-resolution frame is marched in tiles over the preview.
+    View {
+        /// Scene file (RON).
+        scene: PathBuf,
+        /// Window size as WxH (default: the scene's camera.resolution).
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        /// Scene time to start at, seconds.
+        #[arg(long, default_value_t = 0.0)]
+        time: f64,
+        /// Start paused.
+        #[arg(long)]
+        paused: bool,
+        /// Frames per second of Left/Right stepping.
+        #[arg(long, default_value_t = 25.0)]
+        fps: f64,
+        /// Wall time one piece of rendering may take before the window
+        /// answers input again, in milliseconds.
+        #[arg(long, default_value_t = 80.0, value_name = "MS")]
+        preview_ms: f64,
+        /// Close after N presented frames (scripted runs and tests).
+        #[arg(long, value_name = "N")]
+        exit_after: Option<u64>,
+        /// At exit, save the last presented image to this PNG.
+        #[arg(long, value_name = "PNG")]
+        screenshot: Option<PathBuf>,
+        /// Folder where S saves screenshots.
+        #[arg(long, default_value = ".", value_name = "DIR")]
+        screenshot_dir: PathBuf,
+        #[command(flatten)]
+        march: MarchArgs,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
     /// List Vulkan devices and the limits that matter.
     Info,
     /// Measure the speed-accuracy trade: every method at each minimum step
@@ -284,7 +325,7 @@ fn open(gpu: &GpuArgs) -> Result<(std::sync::Arc<Context>, Duration)> {
     if !(gpu.timeout.is_finite() && gpu.timeout > 0.0) {
         bail!("--timeout must be a positive number of seconds, got {}", gpu.timeout);
     }
-    let ctx = Context::new(&ContextOptions { validation: gpu.validation, device: gpu.device.clone() })?;
+    let ctx = Context::new(&ContextOptions { validation: gpu.validation, device: gpu.device.clone(), present: None })?;
     Ok((ctx, Duration::from_secs_f64(gpu.timeout)))
 }
 
@@ -377,6 +418,48 @@ fn run(cli: Cli) -> Result<()> {
             );
             save_cache(&ctx);
             check_validation(&ctx)
+        }
+        Command::View { scene, size, time, paused, fps, preview_ms, exit_after, screenshot, screenshot_dir, march, gpu } => {
+            let scene = load_scene(&scene, &march)?;
+            if !(fps.is_finite() && fps > 0.0) {
+                bail!("--fps must be positive, got {fps}");
+            }
+            if !(preview_ms.is_finite() && preview_ms > 0.0) {
+                bail!("--preview-ms must be positive, got {preview_ms}");
+            }
+            if !time.is_finite() {
+                bail!("--time must be a finite number of seconds, got {time}");
+            }
+            if !(gpu.timeout.is_finite() && gpu.timeout > 0.0) {
+                bail!("--timeout must be a positive number of seconds, got {}", gpu.timeout);
+            }
+            let options = isomarch::view::ViewOptions {
+                method: scene.marching.method,
+                size: size.unwrap_or((scene.camera.width, scene.camera.height)),
+                scene,
+                time,
+                paused,
+                fps,
+                preview: Duration::from_secs_f64(preview_ms / 1e3),
+                exit_after,
+                screenshot,
+                screenshot_dir,
+                device: gpu.device,
+                validation: gpu.validation,
+                timeout: Duration::from_secs_f64(gpu.timeout),
+            };
+            let s = isomarch::view::run(options)?;
+            println!(
+                "presented {} frames ({} at full resolution) in {:.1} s; last: {}, {:.2} steps/ray",
+                s.presented, s.full_frames, s.seconds, s.method, s.steps_per_ray
+            );
+            match &s.ctx {
+                Some(ctx) => {
+                    save_cache(ctx);
+                    check_validation(ctx)
+                }
+                None => Ok(()),
+            }
         }
         Command::Tradeoff { scene: path, methods, min_steps, max_steps, rays, seed, quick, output, gpu } => {
             let scene = Scene::load(&path)?.at_time(0.0);

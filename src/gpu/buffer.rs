@@ -22,6 +22,12 @@ pub struct Buffer {
 impl Buffer {
     /// A storage buffer of `size` bytes (at least 16), named for errors.
     pub fn new(ctx: &Arc<Context>, name: &str, size: u64) -> Result<Buffer> {
+        Buffer::with_usage(ctx, name, size, vk::BufferUsageFlags::STORAGE_BUFFER)
+    }
+
+    /// A host-visible buffer of `size` bytes for `usage` (e.g. the source
+    /// of a copy into a swapchain image).
+    pub fn with_usage(ctx: &Arc<Context>, name: &str, size: u64, usage: vk::BufferUsageFlags) -> Result<Buffer> {
         let size = size.max(16);
         if size > ctx.info.max_storage_buffer_range {
             bail!(
@@ -31,7 +37,7 @@ impl Buffer {
         }
         let info = vk::BufferCreateInfo::default()
             .size(size)
-            .usage(vk::BufferUsageFlags::STORAGE_BUFFER)
+            .usage(usage)
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         // SAFETY: valid device and create info.
         let handle = unsafe { ctx.device.create_buffer(&info, None) }.with_context(|| format!("creating buffer {name}"))?;

@@ -20,6 +20,10 @@ pub struct ContextOptions {
     /// Pick a device by index in `isomarch info` order or by a substring of
     /// its name; `None` picks discrete, then integrated, then CPU.
     pub device: Option<String>,
+    /// Open for presenting to windows of this display (`isomarch view`):
+    /// the instance gets the display's surface extensions and the device
+    /// `VK_KHR_swapchain`.
+    pub present: Option<raw_window_handle::RawDisplayHandle>,
 }
 
 /// What `isomarch info` prints about one device.
@@ -143,7 +147,7 @@ fn device_rank(kind: vk::PhysicalDeviceType) -> u32 {
     }
 }
 
-fn create_instance(entry: &ash::Entry, validation: bool) -> Result<ash::Instance> {
+fn create_instance(entry: &ash::Entry, validation: bool, present: Option<raw_window_handle::RawDisplayHandle>) -> Result<ash::Instance> {
     let app_name = CString::new("isomarch")?;
     let app = vk::ApplicationInfo::default()
         .application_name(&app_name)
@@ -152,6 +156,11 @@ fn create_instance(entry: &ash::Entry, validation: bool) -> Result<ash::Instance
         .api_version(vk::API_VERSION_1_2);
     let mut layers = Vec::new();
     let mut extensions = Vec::new();
+    if let Some(display) = present {
+        let needed = ash_window::enumerate_required_extensions(display)
+            .context("this display has no Vulkan surface extension (is it X11 or Wayland?)")?;
+        extensions.extend_from_slice(needed);
+    }
     if validation {
         // SAFETY: plain enumeration.
         let available = unsafe { entry.enumerate_instance_layer_properties() }.context("listing Vulkan layers")?;
@@ -173,7 +182,7 @@ fn create_instance(entry: &ash::Entry, validation: bool) -> Result<ash::Instance
 /// Lists the Vulkan devices with the limits that matter to isomarch.
 pub fn list_devices() -> Result<Vec<DeviceInfo>> {
     let entry = load_entry()?;
-    let instance = create_instance(&entry, false)?;
+    let instance = create_instance(&entry, false, None)?;
     // SAFETY: the instance is valid and destroyed right after use.
     let result = unsafe { instance.enumerate_physical_devices() }
         .context("enumerating Vulkan devices")
@@ -188,7 +197,7 @@ impl Context {
     pub fn new(options: &ContextOptions) -> Result<Arc<Context>> {
         let validation = validation_requested(options);
         let entry = load_entry()?;
-        let instance = create_instance(&entry, validation)?;
+        let instance = create_instance(&entry, validation, options.present)?;
         let messages = Arc::new(Mutex::new(Vec::new()));
         let mut callback_sink = None;
         let mut debug = None;
@@ -244,7 +253,10 @@ impl Context {
             .ok_or_else(|| anyhow!("device {} has no compute queue", info.name))? as u32;
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
-        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        let device_extensions = if options.present.is_some() { vec![ash::khr::swapchain::NAME.as_ptr()] } else { vec![] };
+        let device_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_extension_names(&device_extensions);
         // SAFETY: valid physical device and create info.
         let device = unsafe { instance.create_device(physical_device, &device_info, None) }
             .with_context(|| format!("creating a logical device on {}", info.name))?;
@@ -303,6 +315,11 @@ impl Context {
         }
         crate::output::write_atomic(path, &data)?;
         Ok(data.len())
+    }
+
+    /// The Vulkan loader's entry points (surface creation needs them).
+    pub fn entry(&self) -> &ash::Entry {
+        &self.entry
     }
 
     /// Whether the validation layer is active.

@@ -4,9 +4,11 @@
 mod buffer;
 mod context;
 mod pipeline;
+mod present;
 mod submit;
 
 pub use buffer::Buffer;
 pub use context::{Context, ContextOptions, DeviceInfo, list_devices};
 pub use pipeline::ComputePipeline;
+pub use present::{Presented, Presenter};
 pub use submit::{GpuError, Submitter};

@@ -3,7 +3,8 @@
 use font8x8::UnicodeFonts;
 use image::{Rgb, RgbImage};
 
-const LEGEND_HEIGHT: u32 = 26;
+/// Rows below a heatmap for its colour bar and scale.
+pub const LEGEND_HEIGHT: u32 = 26;
 const BAR_TOP: u32 = 4;
 const BAR_HEIGHT: u32 = 8;
 const TEXT_TOP: u32 = 15;

@@ -9,7 +9,7 @@ use std::path::Path;
 use anyhow::{Context as _, Result, bail};
 use serde::Serialize;
 
-pub use heatmap::{heatmap_grid, heatmap_image};
+pub use heatmap::{LEGEND_HEIGHT, heatmap_grid, heatmap_image};
 
 use crate::layout::{FLAG_HIT, FLAG_OUT_OF_STEPS, GpuResult};
 

@@ -13,7 +13,7 @@ use rand_pcg::Pcg64Mcg;
 
 /// The GPU with validation on. Fails (never skips) when Vulkan is missing.
 pub fn gpu() -> Arc<Context> {
-    match Context::new(&ContextOptions { validation: true, device: None }) {
+    match Context::new(&ContextOptions { validation: true, ..Default::default() }) {
         Ok(ctx) => ctx,
         Err(e) => panic!(
             "these tests need Vulkan with the validation layer (run them through `bash scripts/test.sh`, which installs lavapipe): {e:#}"

@@ -1,0 +1,169 @@
+//! The window: `isomarch view` under Xvfb, through the binary, closed by
+//! `--exit-after`. Fails (never skips) when Xvfb is missing.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, Output, Stdio};
+
+use common::{bin, repo_root, scratch};
+
+/// An X server of its own for one test, gone when dropped.
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Xvfb {
+    fn start() -> Xvfb {
+        // -displayfd: the server picks a free display and writes its number.
+        let mut child = Command::new("Xvfb")
+            .args(["-displayfd", "1", "-screen", "0", "640x480x24", "-nolisten", "tcp"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("the window tests need Xvfb (apt-get install xvfb; `bash scripts/test.sh` installs it)");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let number: u32 = line.trim().parse().unwrap_or_else(|_| panic!("Xvfb did not report a display: {line:?}"));
+        Xvfb { child, display: format!(":{number}") }
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn view(x: &Xvfb, args: &[&str]) -> Output {
+    Command::new(bin())
+        .arg("view")
+        .args(args)
+        .args(["--validation", "--timeout", "300"])
+        .current_dir(repo_root())
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap()
+}
+
+/// Distinct colours in a PNG of `size`.
+fn colours(png: &Path, size: (u32, u32)) -> usize {
+    let img = image::open(png).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), size, "{}", png.display());
+    let mut seen: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    seen.sort_unstable();
+    seen.dedup();
+    seen.len()
+}
+
+fn assert_clean(out: &Output, frames: u64) {
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "view failed ({:?}):\n{stdout}\n{stderr}", out.status);
+    assert!(stdout.contains(&format!("presented {frames} frames")), "stdout: {stdout}\nstderr: {stderr}");
+    assert!(!stderr.contains("validation"), "validation messages:\n{stderr}");
+}
+
+#[test]
+fn the_viewer_presents_frames_and_exits_cleanly() {
+    let x = Xvfb::start();
+    let dir = scratch("viewer");
+    let shot = dir.join("fig10.png");
+    let out = view(&x, &["scenes/fig10.ron", "--size", "96x80", "--exit-after", "6", "--screenshot", shot.to_str().unwrap()]);
+    assert_clean(&out, 6);
+    // The surface, not a blank window: many shades.
+    assert!(colours(&shot, (96, 80)) > 50, "the presented image is nearly uniform");
+}
+
+#[test]
+fn the_viewer_plays_the_refracting_fig16() {
+    let x = Xvfb::start();
+    let dir = scratch("viewer-fig16");
+    let shot = dir.join("fig16.png");
+    let out = view(
+        &x,
+        &["scenes/fig16.ron", "--size", "82x64", "--method", "quadratic-taylor", "--exit-after", "4", "--screenshot", shot.to_str().unwrap()],
+    );
+    assert_clean(&out, 4);
+    assert!(colours(&shot, (82, 64)) > 50, "the presented image is nearly uniform");
+}
+
+/// Runs xdotool on the test's display.
+fn xdotool(x: &Xvfb, args: &[&str]) -> Output {
+    Command::new("xdotool")
+        .args(args)
+        .env("DISPLAY", &x.display)
+        .output()
+        .expect("the window tests need xdotool (apt-get install xdotool; `bash scripts/test.sh` installs it)")
+}
+
+#[test]
+fn the_viewer_answers_its_controls() {
+    let x = Xvfb::start();
+    let dir = scratch("viewer-keys");
+    let mut child = Command::new(bin())
+        .args(["view", "scenes/fig10.ron", "--size", "96x80", "--paused", "--validation", "--timeout", "300", "--screenshot-dir"])
+        .arg(&dir)
+        .current_dir(repo_root())
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The window, once it exists.
+    let started = std::time::Instant::now();
+    let window = loop {
+        let out = xdotool(&x, &["search", "--name", "^isomarch"]);
+        if let Some(id) = String::from_utf8_lossy(&out.stdout).lines().next() {
+            break id.to_string();
+        }
+        assert!(started.elapsed().as_secs() < 120, "no viewer window after 120 s");
+        assert!(child.try_wait().unwrap().is_none(), "the viewer exited before opening its window");
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    };
+    xdotool(&x, &["windowfocus", "--sync", &window]);
+    let pause = || std::thread::sleep(std::time::Duration::from_millis(400));
+    // M: segment (the scene's) to the next marcher; H: heatmap; S: save it;
+    // Right: one frame on; a drag and a wheel turn orbit and zoom.
+    for key in ["m", "h", "Right", "s"] {
+        xdotool(&x, &["key", key]);
+        pause();
+    }
+    xdotool(&x, &["mousemove", "--window", &window, "20", "40", "mousedown", "1", "mousemove", "--window", &window, "60", "40", "mouseup", "1"]);
+    xdotool(&x, &["click", "4"]);
+    pause();
+    let title = String::from_utf8_lossy(&xdotool(&x, &["getwindowname", &window]).stdout).into_owned();
+    assert!(title.contains("linear-taylor") && title.contains("paused") && title.contains("steps/ray"), "title: {title}");
+    xdotool(&x, &["key", "Escape"]);
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    while child.try_wait().unwrap().is_none() {
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("the viewer did not close on Esc");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let out = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "view failed ({:?}):\n{stdout}\n{stderr}", out.status);
+    assert!(stdout.contains("last: linear-taylor"), "stdout: {stdout}");
+    assert!(!stderr.contains("validation"), "validation messages:\n{stderr}");
+    // S saved the heatmap as shown, at frame 1 (t = 0.04 s at 25 fps).
+    let shots: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(shots.len(), 1, "{shots:?}");
+    let name = shots[0].file_name().unwrap().to_string_lossy().into_owned();
+    assert!(name.starts_with("fig10-linear-taylor-0.040s"), "{name}");
+    let img = image::open(&shots[0]).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (96, 80));
+    // The heatmap's legend: its colour bar runs from viridis' dark purple
+    // to its yellow along one row near the bottom.
+    let row: Vec<[u8; 3]> = (0..96).map(|x| img.get_pixel(x, 80 - 26 + 6).0).collect();
+    let (first, last) = (row[3], row[92]);
+    assert!(first[2] > first[1] && last[0] > 150 && last[1] > 150 && last[2] < 100, "no viridis bar: {first:?} .. {last:?}");
+}
