@@ -297,6 +297,8 @@ fn scenes_far_from_the_origin_keep_their_precision() {
                 let job = RenderJob::new(far.clone(), method, size, std::path::PathBuf::new(), std::time::Duration::from_secs(300));
                 let (frame, _) = render_frame(&ctx, &job).unwrap();
                 let (worst, disagree) = image_error(&frame, &pixels, &reference);
+                // Printed for the README (cargo test -- --nocapture).
+                eprintln!("far scene {seed} at {offset}: {method} worst {worst:.2e} = {:.2e} of the scene", worst / near.bounds.diagonal());
                 assert!(
                     disagree == 0 && worst <= tol,
                     "{method} at {offset}: {disagree} pixels disagree on hitting, worst distance error {worst:e} (bound {tol:e})"
@@ -309,6 +311,7 @@ fn scenes_far_from_the_origin_keep_their_precision() {
             let out = renderer.march(Method::Segment, &world_rays, |_| {}).unwrap();
             let frame = isomarch::output::Frame::from_results(size.0, size.1, &out.results, &pixels);
             let (worst, disagree) = image_error(&frame, &pixels, &reference);
+            eprintln!("far scene {seed} at {offset}: world coordinates, segment worst {worst:.2e}, {disagree} pixels disagree");
             assert!(disagree > 0 || worst > 10.0 * tol, "without re-centring: worst {worst:e}, {disagree} disagree");
         }
     }
