@@ -184,7 +184,7 @@ fn transparent_marching_finds_every_crossing_on_gpu_and_f64() {
     for seed in 0..3u64 {
         for max_of_groups in [false, true] {
             let mut s = random_scene(100 + seed, max_of_groups, Method::Segment);
-            s.transparency = Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::splat(0.1), ior: None, max_depth: 6 });
+            s.transparency = Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::splat(0.1), ior: None, max_depth: 6, reflectivity: 1.0 });
             let rays = protocol_rays(&s.bounds, 512, seed);
             let reference = reference_crossings(&s, &rays, false, false);
             checked += reference.iter().map(Vec::len).sum::<usize>();
@@ -237,7 +237,7 @@ fn transparent_marching_finds_every_crossing_on_gpu_and_f64() {
 fn bisection_methods_refuse_transparent_marching() {
     let ctx = gpu();
     let mut s = random_scene(1, false, Method::Raa);
-    s.transparency = Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::ZERO, ior: None, max_depth: 6 });
+    s.transparency = Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::ZERO, ior: None, max_depth: 6, reflectivity: 1.0 });
     let rays = protocol_rays(&s.bounds, 16, 1);
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
     for method in [Method::Raa, Method::LinearBisection] {
@@ -319,5 +319,30 @@ fn refraction_through_a_blob_sphere_follows_snell_and_reflects_totally_inside() 
     let cos_i = d.dot(m);
     assert!((cos_i - (1.0 - 0.81f64).sqrt()).abs() < 2e-3, "incidence cos {cos_i} at {q}");
     assert!(refract(d, -m, ior).is_none() && fresnel(cos_i, ior) == 1.0, "total internal reflection");
+    assert_no_validation(&ctx);
+}
+
+/// `transparency.reflectivity` scales the reflected share: with one bounce
+/// the image is affine in it (reflected paths and highlights carry it once,
+/// refracted paths not at all), and it matters.
+#[test]
+fn reflectivity_scales_the_reflected_light() {
+    use isomarch::render::offscreen::{RenderJob, render_frame};
+    let ctx = gpu();
+    let mut base = Scene::load(&repo_root().join("scenes/fig16.ron")).unwrap().at_time(0.0);
+    let render = |rho: f64, base: &mut Scene| {
+        let t = base.transparency.as_mut().unwrap();
+        t.reflectivity = rho;
+        t.max_depth = 1;
+        let job = RenderJob::new(base.clone(), Method::QuadraticTaylor, (40, 32), std::path::PathBuf::new(), std::time::Duration::from_secs(300));
+        render_frame(&ctx, &job).unwrap().0.pixels.iter().map(|p| DVec3::new(p.color[0].into(), p.color[1].into(), p.color[2].into())).collect::<Vec<_>>()
+    };
+    let (none, half, full) = (render(0.0, &mut base), render(0.5, &mut base), render(1.0, &mut base));
+    let mut differ = 0;
+    for ((a, m), b) in none.iter().zip(&half).zip(&full) {
+        assert!((*m - 0.5 * (*a + *b)).abs().max_element() < 1e-5, "not affine: {a} {m} {b}");
+        differ += usize::from((*b - *a).max_element() > 1e-3);
+    }
+    assert!(differ > 100, "reflectivity changed only {differ} pixels");
     assert_no_validation(&ctx);
 }

@@ -84,7 +84,12 @@ pub fn pixel_stats(out: &super::MarchOutput, pixels: &[Option<u32>]) -> MarchSta
 /// and evaluations count every ray spawned for it.
 pub fn march_frame(renderer: &mut Renderer, method: Method, rays: &[crate::layout::GpuRay]) -> Result<super::MarchOutput> {
     let dielectric = renderer.scene().transparency.and_then(|t| {
-        t.ior.map(|ior| super::optics::Dielectric { ior, absorption: t.absorption, max_depth: t.max_depth })
+        t.ior.map(|ior| super::optics::Dielectric {
+            ior,
+            absorption: t.absorption,
+            max_depth: t.max_depth,
+            reflectivity: t.reflectivity,
+        })
     });
     let Some(material) = dielectric else {
         return renderer.march(method, rays, |_| {});

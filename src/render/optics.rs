@@ -50,6 +50,10 @@ pub struct Dielectric {
     pub ior: f64,
     pub absorption: DVec3,
     pub max_depth: u32,
+    /// Scales the Fresnel reflectance of the reflected path and highlights
+    /// (1: an exact dielectric; below 1 the surface absorbs the rest of
+    /// the reflected share).
+    pub reflectivity: f64,
 }
 
 /// One path of light traced back from the camera.
@@ -152,10 +156,11 @@ fn trace_generations(renderer: &mut Renderer, method: Method, rays: &[GpuRay], m
             let cos_i = (-d.dot(facing)).max(0.0);
             let refracted = refract(d, facing, eta);
             let r = if refracted.is_some() { fresnel(cos_i, eta) } else { 1.0 };
+            let reflected = material.reflectivity * r;
             if !path.inside {
                 for l in &scene.lights {
                     let h = (l.direction - d).normalize();
-                    out.color[path.pixel] += weight * r * l.color * facing.dot(h).max(0.0).powf(96.0);
+                    out.color[path.pixel] += weight * reflected * l.color * facing.dot(h).max(0.0).powf(96.0);
                 }
             }
             let mut spawn = |dir: DVec3, w: DVec3, inside: bool, side: f64| {
@@ -168,7 +173,7 @@ fn trace_generations(renderer: &mut Renderer, method: Method, rays: &[GpuRay], m
                 next_rays.push(GpuRay { o: f(start, t0), d: f(dir, t1) });
                 next_paths.push(Path { pixel: path.pixel, weight: w, inside });
             };
-            spawn(reflect(d, facing), weight * r, path.inside, 1.0);
+            spawn(reflect(d, facing), weight * reflected, path.inside, 1.0);
             if let Some(dir) = refracted {
                 spawn(dir, weight * (1.0 - r), !path.inside, -1.0);
             }

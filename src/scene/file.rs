@@ -53,6 +53,14 @@ pub struct TransparencyFile {
     /// The most surface hits a reflected or refracted path may take.
     #[serde(default = "default_max_depth")]
     pub max_depth: u32,
+    /// A dielectric's reflectivity in [0, 1]: the exact Fresnel
+    /// reflectance is multiplied by it (1, the default: glass as it is).
+    #[serde(default = "default_reflectivity")]
+    pub reflectivity: f64,
+}
+
+fn default_reflectivity() -> f64 {
+    1.0
 }
 
 fn default_max_depth() -> u32 {

@@ -61,6 +61,8 @@ pub struct Transparency {
     /// A dielectric (reflection and refraction) when set.
     pub ior: Option<f64>,
     pub max_depth: u32,
+    /// Multiplies the Fresnel reflectance of a dielectric, in [0, 1].
+    pub reflectivity: f64,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -361,7 +363,10 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
             if !(1..=16).contains(&t.max_depth) {
                 return Err(c.err("transparency.max_depth", format!("must be in 1..=16, got {}", t.max_depth)));
             }
-            Some(Transparency { opacity: t.opacity, absorption, ior, max_depth: t.max_depth })
+            if !(0.0..=1.0).contains(&t.reflectivity) {
+                return Err(c.err("transparency.reflectivity", format!("must be in [0, 1], got {}", t.reflectivity)));
+            }
+            Some(Transparency { opacity: t.opacity, absorption, ior, max_depth: t.max_depth, reflectivity: t.reflectivity })
         }
     };
     let mut lights = Vec::new();
