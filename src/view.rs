@@ -112,7 +112,8 @@ impl Orbit {
         let turned = DQuat::from_axis_angle(up, self.yaw) * offset;
         // Pitch about the camera's right axis, kept clear of the poles.
         let elevation = (turned.normalize().dot(up)).clamp(-1.0, 1.0).asin();
-        let limit = 85f64.to_radians();
+        // The scene's own camera may be steeper: it is never moved unasked.
+        let limit = 85f64.to_radians().max(elevation.abs());
         let pitch = (elevation + self.pitch).clamp(-limit, limit) - elevation;
         let right = turned.cross(up).normalize_or_zero();
         let pitched = if right == DVec3::ZERO { turned } else { DQuat::from_axis_angle(right, pitch) * turned };
@@ -164,6 +165,8 @@ struct App {
     shown_rgb: Vec<u8>,
     shown_steps: Vec<u32>,
     progressive: Option<Progressive>,
+    /// The window shows a preview: march the full frame once at rest.
+    wants_full: bool,
     presented: u64,
     full_frames: u64,
     steps_per_ray: f64,
@@ -200,6 +203,7 @@ impl App {
             shown_rgb: Vec::new(),
             shown_steps: Vec::new(),
             progressive: None,
+            wants_full: false,
             presented: 0,
             full_frames: 0,
             steps_per_ray: 0.0,
@@ -264,6 +268,8 @@ impl App {
             Key::Named(NamedKey::Space) => {
                 self.playing = !self.playing;
                 self.clock = Instant::now();
+                // Paused on a preview: draw the frame again, then in full.
+                self.dirty = true;
             }
             Key::Named(NamedKey::ArrowRight) | Key::Named(NamedKey::ArrowLeft) => {
                 self.playing = false;
@@ -307,7 +313,11 @@ impl App {
         let Some(gpu) = &self.gpu else { return Ok(()) };
         let (w, h) = gpu.presenter.extent();
         if self.shown_rgb.len() != (w * h * 3) as usize {
-            return Ok(());
+            // Nothing whole to save (the window changed size just now).
+            return match path {
+                Some(p) => Err(anyhow!("no complete frame to save to {} (the window was resized or never drawn)", p.display())),
+                None => Ok(()),
+            };
         }
         let path = path.unwrap_or_else(|| {
             self.screenshots += 1;
@@ -338,15 +348,15 @@ impl App {
         if pixels.is_empty() {
             return Ok(());
         }
-        match gpu.presenter.present(&pixels)? {
-            Presented::Yes => {
-                self.presented += 1;
-                self.fps_window.1 += 1;
-            }
-            Presented::OutOfDate => {
-                let size = gpu.window.inner_size();
-                self.resize(size)?;
-            }
+        let shown = gpu.presenter.present(&pixels)?;
+        if shown != Presented::OutOfDate {
+            self.presented += 1;
+            self.fps_window.1 += 1;
+        }
+        if shown != Presented::Yes {
+            // Rebuild the swapchain for the window as it is now.
+            let size = gpu.window.inner_size();
+            self.resize(size)?;
         }
         Ok(())
     }
@@ -356,8 +366,14 @@ impl App {
         if self.minimised {
             return Ok(());
         }
-        if let Some(gpu) = &mut self.gpu {
-            gpu.presenter.resize((size.width, size.height))?;
+        let Some(gpu) = &mut self.gpu else { return Ok(()) };
+        let before = gpu.presenter.extent();
+        if !gpu.presenter.resize((size.width, size.height))? {
+            self.minimised = true;
+            return Ok(());
+        }
+        if gpu.presenter.extent() == before && !self.shown_rgb.is_empty() {
+            return Ok(());
         }
         self.shown_rgb.clear();
         self.shown_steps.clear();
@@ -475,18 +491,20 @@ impl App {
             self.dirty = false;
             self.progressive = None;
             self.preview_frame(size)?;
-            if self.preview_divisor > 1 && !(self.playing && self.animated()) {
-                let scene = self.posed(size);
-                let (rays, pixels) = camera_rays(&scene.camera, size.0, size.1, &scene.bounds);
-                self.progressive =
-                    Some(Progressive { scene, rays, pixels, next: 0, steps: 0, rays_done: 0, started: Instant::now() });
-            }
+            self.wants_full = self.preview_divisor > 1;
         } else if self.progressive.is_some() {
+            self.progressive_step()?;
+        } else if self.wants_full {
+            // At rest on a preview: march the full frame, tile by tile.
+            self.wants_full = false;
+            let scene = self.posed(size);
+            let (rays, pixels) = camera_rays(&scene.camera, size.0, size.1, &scene.bounds);
+            self.progressive = Some(Progressive { scene, rays, pixels, next: 0, steps: 0, rays_done: 0, started: Instant::now() });
             self.progressive_step()?;
         } else if scripted {
             self.show()?;
         }
-        let busy = moving || self.dirty || self.progressive.is_some() || scripted;
+        let busy = moving || self.dirty || self.wants_full || self.progressive.is_some() || scripted;
         // Going idle: the title must show the final state.
         self.update_title(!busy);
         el.set_control_flow(if busy { ControlFlow::Poll } else { ControlFlow::Wait });
@@ -547,7 +565,7 @@ impl App {
                     let h = f64::from(gpu.presenter.extent().1.max(1));
                     // A drag across the window's height turns by 180 degrees.
                     self.orbit.yaw -= (position.x - x0) / h * std::f64::consts::PI;
-                    self.orbit.pitch += (position.y - y0) / h * std::f64::consts::PI;
+                    self.orbit.pitch = (self.orbit.pitch + (position.y - y0) / h * std::f64::consts::PI).clamp(-3.0, 3.0);
                     self.drag = Some(self.cursor);
                     self.last_input = Instant::now();
                     self.dirty = true;

@@ -8,7 +8,7 @@
 //! sums, maxes, both kernels) in seconds; the primitive count is swept
 //! from 1 to 10,000 on few rays (the f64 reference visits every primitive
 //! at each of its many small steps); scenes beyond one loop turn's budget
-//! (`render::max_primitives`, 11,972) are refused until an acceleration
+//! (`render::max_primitives`, 11,969) are refused until an acceleration
 //! structure exists.
 
 mod common;

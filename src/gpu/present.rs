@@ -23,6 +23,9 @@ pub enum Presented {
     /// The swapchain no longer matches the window (resized): call
     /// [`Presenter::resize`] and render again.
     OutOfDate,
+    /// Shown, but the swapchain no longer matches the window exactly:
+    /// rebuild it before the next frame.
+    Suboptimal,
 }
 
 /// A window's surface and swapchain, and what copying into it needs.
@@ -104,7 +107,9 @@ impl Presenter {
             staging: None,
             timeout,
         };
-        p.resize(size)?;
+        if !p.resize(size)? {
+            bail!("the window has no area to present to");
+        }
         Ok(p)
     }
 
@@ -127,8 +132,9 @@ impl Presenter {
     }
 
     /// (Re)creates the swapchain for a window of `size` pixels. The
-    /// surface's current extent wins where the platform fixes it.
-    pub fn resize(&mut self, size: (u32, u32)) -> Result<()> {
+    /// surface's current extent wins where the platform fixes it. `false`:
+    /// the window has no area now (minimised); nothing changed.
+    pub fn resize(&mut self, size: (u32, u32)) -> Result<bool> {
         self.wait_idle_frame()?;
         let pd = self.ctx.physical_device;
         // SAFETY: queries on live objects.
@@ -158,8 +164,17 @@ impl Presenter {
             }
         };
         if extent.width == 0 || extent.height == 0 {
-            bail!("the window has no area (minimised?)");
+            return Ok(false);
         }
+        let alpha = [
+            vk::CompositeAlphaFlagsKHR::OPAQUE,
+            vk::CompositeAlphaFlagsKHR::INHERIT,
+            vk::CompositeAlphaFlagsKHR::PRE_MULTIPLIED,
+            vk::CompositeAlphaFlagsKHR::POST_MULTIPLIED,
+        ]
+        .into_iter()
+        .find(|a| caps.supported_composite_alpha.contains(*a))
+        .ok_or_else(|| anyhow!("the surface supports no composite alpha mode"))?;
         let mut count = caps.min_image_count + 1;
         if caps.max_image_count > 0 {
             count = count.min(caps.max_image_count);
@@ -175,7 +190,7 @@ impl Presenter {
             .image_usage(vk::ImageUsageFlags::TRANSFER_DST)
             .image_sharing_mode(vk::SharingMode::EXCLUSIVE)
             .pre_transform(caps.current_transform)
-            .composite_alpha(vk::CompositeAlphaFlagsKHR::OPAQUE)
+            .composite_alpha(alpha)
             .present_mode(vk::PresentModeKHR::FIFO)
             .clipped(true)
             .old_swapchain(old);
@@ -205,7 +220,7 @@ impl Presenter {
             self.staging = None;
             self.staging = Some(Buffer::with_usage(&self.ctx, "window pixels", bytes, vk::BufferUsageFlags::TRANSFER_SRC)?);
         }
-        Ok(())
+        Ok(true)
     }
 
     /// Shows `rgb` (row-major, top row first, `extent()` pixels, 3 bytes
@@ -289,8 +304,8 @@ impl Presenter {
             let present = vk::PresentInfoKHR::default().wait_semaphores(&signals).swapchains(&swapchains).image_indices(&indices);
             match self.swapchain_loader.queue_present(self.ctx.queue, &present) {
                 Ok(false) => Ok(Presented::Yes),
-                // Shown, but the window changed: rebuild before the next.
-                Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(Presented::OutOfDate),
+                Ok(true) | Err(vk::Result::SUBOPTIMAL_KHR) => Ok(Presented::Suboptimal),
+                Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(Presented::OutOfDate),
                 Err(e) => Err(anyhow!("presenting: {e}")),
             }
         }

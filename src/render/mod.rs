@@ -58,7 +58,7 @@ const PUSH_CONSTANT_BYTES: u32 = 12;
 const LOOP_BUDGET: usize = 60_000;
 /// Iterations of the small loops (lights, bisection-tree moves) a turn and a
 /// slice may add beyond their passes over the primitives.
-const SMALL_LOOPS: usize = 64;
+const SMALL_LOOPS: usize = 72;
 
 /// Loop iterations of one turn of the march loop: a step makes at most
 /// three passes over the primitives (bisection: the range, and the field at
