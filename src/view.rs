@@ -29,7 +29,7 @@ use crate::layout::GpuRay;
 use crate::method::Method;
 use crate::output::{self, LEGEND_HEIGHT};
 use crate::render::Renderer;
-use crate::render::offscreen::march_frame;
+use crate::render::offscreen::{march_frame, pixel_stats};
 use crate::render::rays::{PIXEL_TILE, camera_rays};
 use crate::scene::Scene;
 
@@ -217,6 +217,11 @@ impl App {
         }
     }
 
+    /// The scene file's name without folder and extension.
+    fn scene_name(&self) -> String {
+        std::path::Path::new(&self.options.scene.source).file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned())
+    }
+
     fn animated(&self) -> bool {
         !self.options.scene.animation.is_static()
     }
@@ -321,8 +326,7 @@ impl App {
         }
         let path = path.unwrap_or_else(|| {
             self.screenshots += 1;
-            let stem = std::path::Path::new(&self.options.scene.source).file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-            self.options.screenshot_dir.join(format!("{stem}-{}-{:.3}s-{}.png", self.method, self.time, self.screenshots))
+            self.options.screenshot_dir.join(format!("{}-{}-{:.3}s-{}.png", self.scene_name(), self.method, self.time, self.screenshots))
         });
         let img = image::RgbImage::from_raw(w, h, self.displayed()).ok_or_else(|| anyhow!("screenshot size"))?;
         output::write_atomic(&path, &output::png_bytes(&img)?)?;
@@ -382,9 +386,8 @@ impl App {
         Ok(())
     }
 
-    /// Marches `rays` of `scene` and returns the results with the wall time
-    /// they took, updating the cost per ray.
-    fn march(&mut self, scene: &Scene, rays: &[GpuRay]) -> Result<Vec<crate::layout::GpuResult>> {
+    /// Marches `rays` of `scene`, updating the measured wall cost per ray.
+    fn march(&mut self, scene: &Scene, rays: &[GpuRay]) -> Result<crate::render::MarchOutput> {
         let gpu = self.gpu.as_mut().ok_or_else(|| anyhow!("no window"))?;
         gpu.renderer.set_scene(scene)?;
         gpu.renderer.transparent = scene.transparency.is_some();
@@ -392,7 +395,7 @@ impl App {
         let out = march_frame(&mut gpu.renderer, self.method, rays)?;
         let ns = t.elapsed().as_nanos() as f64 / rays.len().max(1) as f64;
         self.ns_per_ray = Some(self.ns_per_ray.map_or(ns, |old| 0.5 * (old + ns)));
-        Ok(out.results)
+        Ok(out)
     }
 
     /// Renders at a resolution that fits the preview budget and shows it
@@ -408,10 +411,10 @@ impl App {
         let scene = self.posed(small);
         let (rays, pixels) = camera_rays(&scene.camera, small.0, small.1, &scene.bounds);
         let started = Instant::now();
-        let results = self.march(&scene, &rays)?;
-        let frame = output::Frame::from_results(small.0, small.1, &results, &pixels);
+        let out = self.march(&scene, &rays)?;
+        let frame = output::Frame::from_results(small.0, small.1, &out.results, &pixels);
         self.frame_ms = started.elapsed().as_secs_f64() * 1e3;
-        self.steps_per_ray = mean_steps(&results, &pixels);
+        self.steps_per_ray = pixel_stats(&out, &pixels).steps_per_ray;
         // Nearest-neighbour scale-up to the window.
         let (w, h) = size;
         let shaded = frame.shaded();
@@ -444,7 +447,7 @@ impl App {
         let end = (job.next + count).min(job.rays.len());
         let rays = job.rays[job.next..end].to_vec();
         let scene = job.scene.clone();
-        let results = self.march(&scene, &rays)?;
+        let results = self.march(&scene, &rays)?.results;
         for (r, p) in results.iter().zip(&job.pixels[job.next..end]) {
             let Some(p) = *p else { continue };
             let i = p as usize;
@@ -522,7 +525,7 @@ impl App {
             return;
         }
         self.title_at = Instant::now();
-        let name = std::path::Path::new(&self.options.scene.source).file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        let name = self.scene_name();
         let mut title = format!(
             "isomarch: {name} | {} | {:.1} ms/frame | {:.1} FPS | {:.2} steps/ray | t = {:.2} s",
             self.method, self.frame_ms, self.fps, self.steps_per_ray, self.time
@@ -593,14 +596,6 @@ impl App {
     }
 }
 
-fn mean_steps(results: &[crate::layout::GpuResult], pixels: &[Option<u32>]) -> f64 {
-    let (sum, n) = results
-        .iter()
-        .zip(pixels)
-        .filter(|(_, p)| p.is_some())
-        .fold((0u64, 0u64), |(s, n), (r, _)| (s + u64::from(r.counts[0]), n + 1));
-    sum as f64 / n.max(1) as f64
-}
 
 impl ApplicationHandler for App {
     fn resumed(&mut self, el: &ActiveEventLoop) {
