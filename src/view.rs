@@ -398,14 +398,18 @@ impl App {
         Ok(out)
     }
 
+    /// Rays that fit the preview budget at the measured cost per ray (the
+    /// first frame of a method has no cost yet: start small).
+    fn affordable_rays(&self) -> f64 {
+        let budget = self.options.preview.as_nanos() as f64;
+        self.ns_per_ray.map_or(4096.0, |ns| budget / ns.max(1.0))
+    }
+
     /// Renders at a resolution that fits the preview budget and shows it
     /// scaled up to the window; full resolution when that fits.
     fn preview_frame(&mut self, size: (u32, u32)) -> Result<()> {
-        let budget = self.options.preview.as_nanos() as f64;
         let full_rays = f64::from(size.0) * f64::from(size.1);
-        // The first frame of a method has no cost yet: start small.
-        let affordable = self.ns_per_ray.map_or(4096.0, |ns| budget / ns.max(1.0));
-        let divisor = (full_rays / affordable.max(64.0)).sqrt().ceil().clamp(1.0, 64.0) as u32;
+        let divisor = (full_rays / self.affordable_rays().max(64.0)).sqrt().ceil().clamp(1.0, 64.0) as u32;
         self.preview_divisor = divisor;
         let small = (size.0.div_ceil(divisor).max(1), size.1.div_ceil(divisor).max(1));
         let scene = self.posed(small);
@@ -440,14 +444,10 @@ impl App {
     /// the budget) and shows them over the preview.
     fn progressive_step(&mut self) -> Result<()> {
         let Some(mut job) = self.progressive.take() else { return Ok(()) };
-        let budget = self.options.preview.as_nanos() as f64;
         let tile = (PIXEL_TILE * PIXEL_TILE) as usize;
-        let affordable = self.ns_per_ray.map_or(4096.0, |ns| budget / ns.max(1.0)) as usize;
-        let count = (affordable / tile).max(1) * tile;
+        let count = (self.affordable_rays() as usize / tile).max(1) * tile;
         let end = (job.next + count).min(job.rays.len());
-        let rays = job.rays[job.next..end].to_vec();
-        let scene = job.scene.clone();
-        let results = self.march(&scene, &rays)?.results;
+        let results = self.march(&job.scene, &job.rays[job.next..end])?.results;
         for (r, p) in results.iter().zip(&job.pixels[job.next..end]) {
             let Some(p) = *p else { continue };
             let i = p as usize;
