@@ -321,12 +321,18 @@ fn load_scene(path: &PathBuf, march: &MarchArgs) -> Result<Scene> {
     Ok(scene)
 }
 
-fn open(gpu: &GpuArgs) -> Result<(std::sync::Arc<Context>, Duration)> {
+/// `--timeout`, checked.
+fn timeout(gpu: &GpuArgs) -> Result<Duration> {
     if !(gpu.timeout.is_finite() && gpu.timeout > 0.0) {
         bail!("--timeout must be a positive number of seconds, got {}", gpu.timeout);
     }
+    Ok(Duration::from_secs_f64(gpu.timeout))
+}
+
+fn open(gpu: &GpuArgs) -> Result<(std::sync::Arc<Context>, Duration)> {
+    let timeout = timeout(gpu)?;
     let ctx = Context::new(&ContextOptions { validation: gpu.validation, device: gpu.device.clone(), present: None })?;
-    Ok((ctx, Duration::from_secs_f64(gpu.timeout)))
+    Ok((ctx, timeout))
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -430,9 +436,7 @@ fn run(cli: Cli) -> Result<()> {
             if !time.is_finite() {
                 bail!("--time must be a finite number of seconds, got {time}");
             }
-            if !(gpu.timeout.is_finite() && gpu.timeout > 0.0) {
-                bail!("--timeout must be a positive number of seconds, got {}", gpu.timeout);
-            }
+            let timeout = timeout(&gpu)?;
             let options = isomarch::view::ViewOptions {
                 method: scene.marching.method,
                 size: size.unwrap_or((scene.camera.width, scene.camera.height)),
@@ -446,7 +450,7 @@ fn run(cli: Cli) -> Result<()> {
                 screenshot_dir,
                 device: gpu.device,
                 validation: gpu.validation,
-                timeout: Duration::from_secs_f64(gpu.timeout),
+                timeout,
             };
             let s = isomarch::view::run(options)?;
             println!(
