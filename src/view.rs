@@ -555,7 +555,13 @@ impl App {
                 self.minimised = hidden;
                 self.dirty = true;
             }
-            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+            // Held keys repeat only where repeating makes sense (stepping);
+            // keys found held when the window gains focus are not presses.
+            WindowEvent::KeyboardInput { event, is_synthetic, .. }
+                if event.state == ElementState::Pressed
+                    && !is_synthetic
+                    && (!event.repeat || matches!(event.logical_key, Key::Named(NamedKey::ArrowLeft | NamedKey::ArrowRight))) =>
+            {
                 self.key(el, &event.logical_key)?;
             }
             WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {

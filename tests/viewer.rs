@@ -9,14 +9,21 @@ use std::process::{Child, Command, Output, Stdio};
 
 use common::{bin, repo_root, scratch};
 
-/// An X server of its own for one test, gone when dropped.
+/// An X server of its own for one test, gone when dropped. The tests take
+/// turns: X servers started at the same moment with -displayfd were seen
+/// to end up on one display (a viewer then met another test's server, or
+/// its window).
 struct Xvfb {
     child: Child,
     display: String,
+    _turn: std::sync::MutexGuard<'static, ()>,
 }
+
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 impl Xvfb {
     fn start() -> Xvfb {
+        let turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
         // -displayfd: the server picks a free display and writes its number.
         let mut child = Command::new("Xvfb")
             .args(["-displayfd", "1", "-screen", "0", "640x480x24", "-nolisten", "tcp"])
@@ -27,7 +34,7 @@ impl Xvfb {
         let mut line = String::new();
         BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
         let number: u32 = line.trim().parse().unwrap_or_else(|_| panic!("Xvfb did not report a display: {line:?}"));
-        Xvfb { child, display: format!(":{number}") }
+        Xvfb { child, display: format!(":{number}"), _turn: turn }
     }
 }
 
@@ -123,7 +130,15 @@ fn the_viewer_answers_its_controls() {
             break id.to_string();
         }
         assert!(started.elapsed().as_secs() < 120, "no viewer window after 120 s");
-        assert!(child.try_wait().unwrap().is_none(), "the viewer exited before opening its window");
+        if child.try_wait().unwrap().is_some() {
+            let out = child.wait_with_output().unwrap();
+            panic!(
+                "the viewer exited ({:?}) before opening its window:\n{}\n{}",
+                out.status,
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
         std::thread::sleep(std::time::Duration::from_millis(200));
     };
     xdotool(&x, &["windowfocus", "--sync", &window]);
