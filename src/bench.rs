@@ -1,4 +1,4 @@
-//! The benchmark protocol of BENCHMARKS.md: the same seeded rays for every
+//! The benchmark protocol of docs/benchmark-protocol.md: the same seeded rays for every
 //! method in one run, compared with the f64 reference.
 
 use std::sync::Arc;
@@ -20,7 +20,7 @@ use crate::render::rays::{Ray, protocol_rays};
 use crate::render::Renderer;
 use crate::scene::{Kernel, Primitive, Scene};
 
-/// BENCHMARKS.md: 1,048,576 rays unless told otherwise.
+/// docs/benchmark-protocol.md: 1,048,576 rays unless told otherwise.
 pub const DEFAULT_RAYS: usize = 1 << 20;
 pub const DEFAULT_SEED: u64 = 20230601;
 

@@ -201,7 +201,7 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
-    /// Compare marchers on the benchmark protocol (BENCHMARKS.md): the same seeded rays for each.
+    /// Compare marchers on the benchmark protocol (docs/benchmark-protocol.md): the same seeded rays for each.
     Bench {
         /// Scene file (RON).
         scene: PathBuf,

@@ -1,5 +1,6 @@
 //! The shipped scenes: they load, and the benchmark scenes match the CSVs
-//! they were built from.
+//! they were built from (tests/data/benchmarks, provenance in its README;
+//! the scenes are described in docs/benchmark-protocol.md).
 
 mod common;
 
@@ -7,9 +8,14 @@ use common::*;
 use glam::DVec3;
 use isomarch::scene::{Kernel, Primitive, Scene};
 
+/// A file of the benchmark scene data kept in the repository.
+fn benchmark_data(file: &str) -> std::path::PathBuf {
+    repo_root().join("tests/data/benchmarks").join(file)
+}
+
 /// `(group, centre, R)` rows of a benchmark CSV.
 fn csv_rows(name: &str) -> Vec<(usize, DVec3, f64)> {
-    let path = shared_dir().join("benchmarks").join(format!("{name}.csv"));
+    let path = benchmark_data(&format!("{name}.csv"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     text.lines()
         .skip(1)
@@ -24,7 +30,7 @@ fn csv_rows(name: &str) -> Vec<(usize, DVec3, f64)> {
 fn assert_matches_csv(scene: &str, csv: &str) {
     let s = Scene::load(&repo_root().join("scenes").join(scene)).unwrap();
     let rows = csv_rows(csv);
-    assert_eq!(s.iso, 0.5, "BENCHMARKS.md: iso 0.5 for all scenes");
+    assert_eq!(s.iso, 0.5, "docs/benchmark-protocol.md: iso 0.5 for all scenes");
     assert_eq!(s.primitive_count(), rows.len(), "{scene}: primitive count");
     let groups = rows.iter().map(|r| r.0).max().unwrap() + 1;
     assert_eq!(s.groups.len(), groups, "{scene}: group count");
@@ -50,7 +56,7 @@ fn assert_matches_csv(scene: &str, csv: &str) {
 fn fig10_matches_its_csv() {
     assert_matches_csv("fig10.ron", "fig10");
     let s = Scene::load(&repo_root().join("scenes/fig10.ron")).unwrap();
-    assert_eq!((s.marching.min_step, s.marching.max_steps), (0.1, 1000), "BENCHMARKS.md protocol");
+    assert_eq!((s.marching.min_step, s.marching.max_steps), (0.1, 1000), "docs/benchmark-protocol.md: minimum step 0.1, at most 1000 steps");
 }
 
 #[test]
@@ -74,7 +80,7 @@ fn fig10_gauss_is_fig10_with_gaussian_kernels() {
     let load = |name: &str| Scene::load(&repo_root().join("scenes").join(name)).unwrap();
     let (compact, gauss) = (load("fig10.ron"), load("fig10-gauss.ron"));
     assert_eq!(gauss.iso, compact.iso);
-    assert_eq!((gauss.marching.min_step, gauss.marching.max_steps), (0.1, 1000), "BENCHMARKS.md protocol");
+    assert_eq!((gauss.marching.min_step, gauss.marching.max_steps), (0.1, 1000), "docs/benchmark-protocol.md: minimum step 0.1, at most 1000 steps");
     assert_eq!(gauss.groups.len(), compact.groups.len());
     let factor = (1.0 - compact.iso.cbrt()).sqrt();
     for (c, g) in compact.primitives().zip(gauss.primitives()) {
@@ -99,19 +105,19 @@ fn fig1_and_fig17_match_their_csvs_and_are_transparent() {
     for name in ["fig1", "fig17"] {
         assert_matches_csv(&format!("{name}.ron"), name);
         let s = Scene::load(&repo_root().join("scenes").join(format!("{name}.ron"))).unwrap();
-        assert!(s.transparency.is_some(), "{name}: BENCHMARKS.md renders it transparent");
-        assert_eq!((s.marching.min_step, s.marching.max_steps), (0.1, 1000), "BENCHMARKS.md protocol");
+        assert!(s.transparency.is_some(), "{name}: docs/benchmark-protocol.md renders it transparent");
+        assert_eq!((s.marching.min_step, s.marching.max_steps), (0.1, 1000), "docs/benchmark-protocol.md: minimum step 0.1, at most 1000 steps");
     }
 }
 
 /// fig16: the CSV's nine blobs in one sum group with the ground slab, each
 /// bobbing as y = 2.5 + 0.8 sin(2π t / 4 s + phase) with its phase from
-/// fig16_phases.csv (BENCHMARKS.md).
+/// fig16_phases.csv (docs/benchmark-protocol.md, "Scenes").
 #[test]
 fn fig16_matches_its_csvs_and_moves_as_specified() {
     let s = Scene::load(&repo_root().join("scenes/fig16.ron")).unwrap();
     let rows = csv_rows("fig16");
-    let phases: Vec<f64> = std::fs::read_to_string(shared_dir().join("benchmarks/fig16_phases.csv"))
+    let phases: Vec<f64> = std::fs::read_to_string(benchmark_data("fig16_phases.csv"))
         .unwrap()
         .lines()
         .skip(1)

@@ -83,7 +83,7 @@ pub fn camera_rays(cam: &Camera, width: u32, height: u32, bounds: &Aabb) -> (Vec
     (rays, pixels)
 }
 
-/// The benchmark protocol's rays (BENCHMARKS.md): origin uniform on the
+/// The benchmark protocol's rays (docs/benchmark-protocol.md, "Rays"): origin uniform on the
 /// sphere around the box centre with radius the box diagonal, direction
 /// towards a point uniform in the box, clipped to the box. Seeded.
 pub fn protocol_rays(bounds: &Aabb, count: usize, seed: u64) -> Vec<GpuRay> {

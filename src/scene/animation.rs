@@ -198,7 +198,7 @@ mod tests {
 
     #[test]
     fn sines_follow_the_benchmark_formula() {
-        // BENCHMARKS.md fig16: y = 2.5 + 0.8 sin(2π t / 4 s + phase).
+        // fig16 (docs/benchmark-protocol.md, "Scenes"): y = 2.5 + 0.8 sin(2π t / 4 s + phase).
         let m = Motion::Sine { axis: DVec3::Y, amplitude: 0.8, period: 4.0, phase: 0.3 };
         for t in [0.0, 0.7, 1.0, 3.9] {
             let expected = 0.8 * (std::f64::consts::TAU * t / 4.0 + 0.3).sin();

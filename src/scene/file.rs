@@ -106,7 +106,8 @@ pub struct MarchingFile {
     /// The marcher when the command line does not choose one.
     #[serde(default = "default_method")]
     pub method: String,
-    /// Minimum step in scene units (BENCHMARKS.md uses 0.1).
+    /// Minimum step in scene units (the benchmark protocol uses 0.1:
+    /// docs/benchmark-protocol.md, "Rays").
     #[serde(default = "default_min_step")]
     pub min_step: f64,
     /// Step budget per ray.

@@ -31,13 +31,6 @@ pub fn repo_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// `../shared` beside the repository (the paper, benchmarks).
-pub fn shared_dir() -> PathBuf {
-    let dir = repo_root().join("..").join("shared");
-    assert!(dir.is_dir(), "{} is missing: the benchmark CSVs live there", dir.display());
-    dir
-}
-
 pub fn bin() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_isomarch"))
 }
