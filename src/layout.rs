@@ -67,9 +67,13 @@ gpu_structs! {
     /// `MAX_CROSSINGS` are in the crossings buffer), yzw reserved.
     struct GpuResult { hit: Vec4, color: Vec4, counts: UVec4, crossings: UVec4 }
 
-    /// A forward bound on `[t0, t1]` from the bounds probe:
-    /// `lo` = (v, a_lo, b_lo, t_valid), `hi` = (v, a_hi, b_hi, 0). For RAA,
-    /// which is not forward, `lo.x` and `hi.x` hold its range, slopes 0.
+    /// What the bounds probe found for one query on `[t0, t1]`. A forward
+    /// bound: `lo` = (v, a_lo, b_lo, t_valid), `hi` = (v, a_hi, b_hi, e_hi),
+    /// `e_hi` how far above v the upper bound starts (0 except for
+    /// quadratic-relaxed-t0). RAA, which is not forward: `lo.x` and `hi.x`
+    /// hold its range, slopes 0. Sphere tracing: `lo.x` f at t0, `hi.xyz`
+    /// its gradient. Segment tracing: `lo.x` f at t0, `hi.y` the Lipschitz
+    /// bound on [t0, t1] (`lo.y` its negative).
     struct GpuBound { lo: Vec4, hi: Vec4 }
 
     /// A ray's marching state between dispatches (see `render::Renderer::march`):
@@ -99,7 +103,7 @@ gpu_structs! {
     struct GpuLight { dir: Vec4, color: Vec4 }
 }
 
-/// Primitive kinds (`GpuPrimitive::c.x`).
+/// Primitive kinds (`GpuPrimitive::ids.x`).
 pub const PRIM_COMPACT_POINT: u32 = 0;
 pub const PRIM_GAUSSIAN_POINT: u32 = 1;
 pub const PRIM_COMPACT_PLANE: u32 = 2;

@@ -3,7 +3,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::field::quad::ExpUpper;
+use crate::settings::ExpUpper;
 use crate::layout;
 
 /// A ray-marching method. Each is a specialization of the one march shader.
@@ -11,7 +11,7 @@ use crate::layout;
 pub enum Method {
     /// Sphere tracing with the global Lipschitz bound (Eq. 10).
     Sphere,
-    /// Segment tracing (Galin et al. 2020), pinned in BENCHMARKS.md.
+    /// Segment tracing (Galin et al. 2020), pinned in docs/benchmark-protocol.md.
     Segment,
     /// Linear Taylor forward bounds (Section 5.1, Eq. 13-15): slopes from
     /// the exact range of f' over the interval, per primitive.
@@ -68,7 +68,7 @@ impl Method {
 
     /// Algorithm 1's interval growth k: the next candidate interval is k
     /// times the last step. Segment tracing's 1.5 is pinned by
-    /// BENCHMARKS.md; linear Taylor takes 3, the best of the sweep in the
+    /// docs/benchmark-protocol.md; linear Taylor takes 3, the best of the sweep in the
     /// README (`scripts/growth-sweep.sh`); the others the paper's k = 2.
     pub fn default_growth(self) -> f64 {
         match self {

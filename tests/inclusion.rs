@@ -7,7 +7,9 @@ mod common;
 
 use common::*;
 use glam::DVec3;
-use isomarch::field::bounds::{Bound, Order, field_bound};
+use isomarch::field::bound::Bound;
+use isomarch::field::bounds::Order;
+use isomarch::field::fold::field_bound;
 use isomarch::field::Field;
 use isomarch::field::quad::{QuadSettings, ValidityScope};
 use isomarch::layout::GpuRay;
@@ -253,9 +255,9 @@ fn taylor_derivative_ranges_are_tight() {
             continue;
         }
         for p in field.groups.iter().flatten() {
-            let at = |t: f64| p.value(r.o + t * r.d);
+            let at = |t: f64| p.kind().value(r.o + t * r.d);
             for order in [Order::Linear, Order::Quadratic] {
-                let k = p.taylor(r.o, r.d, r.t0, r.t1, order, false);
+                let k = p.kind().taylor(r.o, r.d, r.t0, r.t1, order, false);
                 let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
                 for i in 0..=2000 {
                     let t = r.t0 + (r.t1 - r.t0) * f64::from(i) / 2000.0;
@@ -341,7 +343,7 @@ fn raa_ranges_contain_the_field_on_gpu_and_f64() {
         let gpu = renderer.probe_bounds(Method::Raa, &queries).unwrap();
         for (q, g) in queries.iter().zip(&gpu) {
             let r = Ray::from_gpu(q);
-            let (lo, hi) = isomarch::field::raa::field_raa(&field, r.o, r.d, r.t0, r.t1);
+            let (lo, hi) = isomarch::field::fold::field_raa(&field, r.o, r.d, r.t0, r.t1);
             let (glo, ghi) = (f64::from(g.lo[0]), f64::from(g.hi[0]));
             assert!(lo.is_finite() && hi.is_finite() && glo.is_finite() && ghi.is_finite(), "{name}: non-finite range");
             let width = (hi - lo).abs();

@@ -1,5 +1,8 @@
-// Forward inclusion functions along a ray (Sections 4-6). Mirrors
-// src/field/bounds.rs, whose comments carry the derivations.
+// Forward inclusion functions along a ray (Sections 4-6): the bounds of
+// one primitive, one function per kind, and the algebra that combines
+// bounds (sums, products, max, roots); traverse.glsl folds them over the
+// primitives. Mirrors src/field/bounds.rs, quad.rs and raa.rs, whose
+// comments carry the derivations.
 //
 // A Bound on [t0, t1] is lo(τ) = v + a_lo τ + b_lo τ² and
 // hi(τ) = v + e_hi + a_hi τ + b_hi τ², τ = t - t0, exact at t0 (forward)
@@ -100,28 +103,30 @@ Taylor gaussian_taylor(float w, float alpha, float h2, float x0, float x1, bool 
     return Taylor(v0.x, v0.y, min(min(min(d0, d1), min(dm, dp)), dz), max(max(max(d0, d1), max(dm, dp)), dz));
 }
 
-// One primitive's Taylor data along o + t u on [t0, t1].
-Taylor prim_taylor(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1, bool QUADRATIC) {
-    uint kind = pr.ids.x;
-    Taylor none = Taylor(0.0, 0.0, 0.0, 0.0);
-    if (!kind_enabled(kind)) return none;
-    if (kind == PRIM_COMPACT_PLANE) {
-        // Signed distance s = s0 + σ t: the kernel of s with h = 0,
-        // derivatives in t scaled by σ and σ².
-        vec2 s = plane_on_ray(pr, o, u, t0);
-        float s0 = s.x;
-        float sigma = s.y;
-        float s1 = plane_on_ray(pr, o, u, t1).x;
-        Taylor k = compact_taylor(pr.b.z, pr.b.y, pr.b.x, 0.0, min(s0, s1), max(s0, s1), QUADRATIC, false);
-        vec3 d0 = compact_derivs(pr.b.z, pr.b.y, 1.0, s0);
-        float scale = QUADRATIC ? sigma * sigma : sigma;
-        float lo = k.lo * scale;
-        float hi = k.hi * scale;
-        return Taylor(d0.x, d0.y * sigma, min(lo, hi), max(lo, hi));
-    }
+// One primitive's Taylor data along o + t u on [t0, t1], per kind.
+Taylor compact_point_taylor(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1, bool QUADRATIC) {
     vec2 g = point_on_ray(pr, o, u, t0);
-    if (kind == PRIM_GAUSSIAN_POINT) return gaussian_taylor(pr.b.z, pr.b.y, g.x, g.y, g.y + (t1 - t0), QUADRATIC);
     return compact_taylor(pr.b.z, pr.b.y, pr.b.x, g.x, g.y, g.y + (t1 - t0), QUADRATIC, SC_EXTENSION != 0u);
+}
+
+Taylor gaussian_point_taylor(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1, bool QUADRATIC) {
+    vec2 g = point_on_ray(pr, o, u, t0);
+    return gaussian_taylor(pr.b.z, pr.b.y, g.x, g.y, g.y + (t1 - t0), QUADRATIC);
+}
+
+// Signed distance s = s0 + σ t: the kernel of s with h = 0, derivatives in
+// t scaled by σ and σ².
+Taylor compact_plane_taylor(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1, bool QUADRATIC) {
+    vec2 s = plane_on_ray(pr, o, u, t0);
+    float s0 = s.x;
+    float sigma = s.y;
+    float s1 = plane_on_ray(pr, o, u, t1).x;
+    Taylor k = compact_taylor(pr.b.z, pr.b.y, pr.b.x, 0.0, min(s0, s1), max(s0, s1), QUADRATIC, false);
+    vec3 d0 = compact_derivs(pr.b.z, pr.b.y, 1.0, s0);
+    float scale = QUADRATIC ? sigma * sigma : sigma;
+    float lo = k.lo * scale;
+    float hi = k.hi * scale;
+    return Taylor(d0.x, d0.y * sigma, min(lo, hi), max(lo, hi));
 }
 
 // Max of two forward bounds on [0, len] (Section 5.2, Appendix C): lower is
@@ -211,27 +216,29 @@ Lin compact_lin(float w, float inv_r2, float a, float x0, float len) {
     return k;
 }
 
-Lin prim_linear(GpuPrimitive pr, vec3 o, vec3 u, float t0, float len) {
-    uint kind = pr.ids.x;
-    if (!kind_enabled(kind)) return Lin(0.0, 0.0, 0.0);
-    if (kind == PRIM_COMPACT_PLANE) {
-        vec2 s = plane_on_ray(pr, o, u, t0);
-        if (abs(s.y) < 1e-9) return Lin(slab_value(pr, s.x), 0.0, 0.0);
-        return compact_lin(pr.b.z, pr.b.y * s.y * s.y, 1.0, s.x / s.y, len);
-    }
+// One primitive's bottom-up linear bound on [t0, t0 + len], per kind.
+Lin compact_point_linear(GpuPrimitive pr, vec3 o, vec3 u, float t0, float len) {
+    vec2 g = point_on_ray(pr, o, u, t0);
+    return compact_lin(pr.b.z, pr.b.y, 1.0 - g.x * pr.b.y, g.y, len);
+}
+
+Lin gaussian_point_linear(GpuPrimitive pr, vec3 o, vec3 u, float t0, float len) {
     vec2 g = point_on_ray(pr, o, u, t0);
     float h2 = g.x;
     float x0 = g.y;
-    if (kind == PRIM_GAUSSIAN_POINT) {
-        g_evals += 1u;
-        float alpha = pr.b.y;
-        Lin y = Lin(alpha * (x0 * x0 + h2), 2.0 * alpha * x0, alpha * (2.0 * x0 + len));
-        // Slopes clamped to the kernel's Lipschitz constant (mean value
-        // theorem): the chord of e^{-y} can overflow far from t0.
-        Lin k = lin_exp_neg(y, pr.b.z, len);
-        return Lin(k.v, max(k.lo, -pr.c.x), min(k.hi, pr.c.x));
-    }
-    return compact_lin(pr.b.z, pr.b.y, 1.0 - h2 * pr.b.y, x0, len);
+    g_evals += 1u;
+    float alpha = pr.b.y;
+    Lin y = Lin(alpha * (x0 * x0 + h2), 2.0 * alpha * x0, alpha * (2.0 * x0 + len));
+    // Slopes clamped to the kernel's Lipschitz constant (mean value
+    // theorem): the chord of e^{-y} can overflow far from t0.
+    Lin k = lin_exp_neg(y, pr.b.z, len);
+    return Lin(k.v, max(k.lo, -pr.c.x), min(k.hi, pr.c.x));
+}
+
+Lin compact_plane_linear(GpuPrimitive pr, vec3 o, vec3 u, float t0, float len) {
+    vec2 s = plane_on_ray(pr, o, u, t0);
+    if (abs(s.y) < 1e-9) return Lin(slab_value(pr, s.x), 0.0, 0.0);
+    return compact_lin(pr.b.z, pr.b.y * s.y * s.y, 1.0, s.x / s.y, len);
 }
 
 // Revised affine arithmetic (the paper's [FPC10] baseline), mirrored
@@ -283,48 +290,31 @@ vec3 aa_exp_neg(vec3 y, float y_min) {
     return vec3(s * y.x + 0.5 * (top + bottom), s * y.y, abs(s) * y.z + 0.5 * (top - bottom));
 }
 
-vec3 prim_raa(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
-    uint kind = pr.ids.x;
-    if (!kind_enabled(kind)) return vec3(0.0);
-    if (kind == PRIM_COMPACT_PLANE) {
-        vec2 s = plane_on_ray(pr, o, u, ta);
-        float sa = s.x;
-        float sigma = s.y;
-        if (abs(sigma) < 1e-9) return vec3(slab_value(pr, sa), 0.0, 0.0);
-        float sb = plane_on_ray(pr, o, u, tb).x;
-        vec3 r = compact_raa(pr.b.z, pr.b.y * sigma * sigma, 0.0, min(sa / sigma, sb / sigma), max(sa / sigma, sb / sigma));
-        return sigma < 0.0 ? vec3(r.x, -r.y, r.z) : r;
-    }
+// One primitive in revised affine arithmetic on [ta, tb], per kind.
+vec3 compact_point_raa(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
+    vec2 g = point_on_ray(pr, o, u, ta);
+    return compact_raa(pr.b.z, pr.b.y, g.x, g.y, g.y + (tb - ta));
+}
+
+vec3 gaussian_point_raa(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
     vec2 g = point_on_ray(pr, o, u, ta);
     float h2 = g.x;
     float xa = g.y;
     float xb = xa + (tb - ta);
-    if (kind == PRIM_GAUSSIAN_POINT) {
-        g_evals += 1u;
-        vec3 x = vec3(0.5 * (xa + xb), 0.5 * (xb - xa), 0.0);
-        vec3 y = aa_scale(aa_mul(x, x) + vec3(h2, 0.0, 0.0), pr.b.y);
-        return aa_scale(aa_exp_neg(y, pr.b.y * h2), pr.b.z);
-    }
-    return compact_raa(pr.b.z, pr.b.y, h2, xa, xb);
+    g_evals += 1u;
+    vec3 x = vec3(0.5 * (xa + xb), 0.5 * (xb - xa), 0.0);
+    vec3 y = aa_scale(aa_mul(x, x) + vec3(h2, 0.0, 0.0), pr.b.y);
+    return aa_scale(aa_exp_neg(y, pr.b.y * h2), pr.b.z);
 }
 
-// Range of f = max over groups (sums) - iso over [ta, tb].
-vec2 field_raa(vec3 o, vec3 u, float ta, float tb) {
-    uint n = globals.sizes.x;
-    vec2 best = vec2(-3.0e38);
-    vec3 s = vec3(0.0);
-    uint group = 0u;
-    for (uint i = 0u; i < n; ++i) {
-        if (!prim_active(i)) continue;
-        GpuPrimitive pr = prims[i];
-        if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
-            best = max(best, aa_range(s));
-            s = vec3(0.0);
-            group = pr.ids.y;
-        }
-        s += prim_raa(pr, o, u, ta, tb);
-    }
-    return max(best, aa_range(s)) - globals.march.x;
+vec3 compact_plane_raa(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
+    vec2 s = plane_on_ray(pr, o, u, ta);
+    float sa = s.x;
+    float sigma = s.y;
+    if (abs(sigma) < 1e-9) return vec3(slab_value(pr, sa), 0.0, 0.0);
+    float sb = plane_on_ray(pr, o, u, tb).x;
+    vec3 r = compact_raa(pr.b.z, pr.b.y * sigma * sigma, 0.0, min(sa / sigma, sb / sigma), max(sa / sigma, sb / sigma));
+    return sigma < 0.0 ? vec3(r.x, -r.y, r.z) : r;
 }
 
 // Bottom-up quadratic bounds (Section 6.2), mirrored from
@@ -486,92 +476,22 @@ Bound gaussian_quad(float w, float alpha, float h2, float x0, inout float len) {
     return b;
 }
 
-Bound prim_quad(GpuPrimitive pr, vec3 o, vec3 u, float t0, inout float len) {
-    uint kind = pr.ids.x;
-    if (!kind_enabled(kind)) return quad_exact(0.0, 0.0, 0.0);
-    if (kind == PRIM_COMPACT_PLANE) {
-        vec2 s = plane_on_ray(pr, o, u, t0);
-        if (abs(s.y) < 1e-9) return quad_exact(slab_value(pr, s.x), 0.0, 0.0);
-        return compact_quad(pr.b.z, pr.b.y * s.y * s.y, pr.b.x / abs(s.y), 1.0, s.x / s.y, len);
-    }
+// One primitive's bottom-up quadratic bound on [t0, t0 + len], per kind;
+// a Gaussian may shorten len (the compact kinds leave it).
+Bound compact_point_quad(GpuPrimitive pr, vec3 o, vec3 u, float t0, inout float len) {
     vec2 g = point_on_ray(pr, o, u, t0);
-    if (kind == PRIM_GAUSSIAN_POINT) return gaussian_quad(pr.b.z, pr.b.y, g.x, g.y, len);
     return compact_quad(pr.b.z, pr.b.y, pr.b.x, 1.0 - g.x * pr.b.y, g.y, len);
 }
 
-bool bottom_up_quadratic() {
-    return SC_METHOD == METHOD_QUADRATIC || SC_METHOD == METHOD_QUADRATIC_RELAXED_T0 || SC_METHOD == METHOD_QUADRATIC_RELAXED_MAX;
+Bound gaussian_point_quad(GpuPrimitive pr, vec3 o, vec3 u, float t0, inout float len) {
+    vec2 g = point_on_ray(pr, o, u, t0);
+    return gaussian_quad(pr.b.z, pr.b.y, g.x, g.y, len);
 }
 
-// One primitive's terms for the Taylor and bottom-up linear methods on
-// [t0, t1]: value, exact slope at t0, and the range summed into the
-// group's bound (of f' for linear Taylor, of f'' for quadratic Taylor, the
-// slopes of the bottom-up linear bound for `linear`).
-Taylor prim_terms(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1) {
-    if (SC_METHOD == METHOD_LINEAR || SC_METHOD == METHOD_LINEAR_BISECTION) {
-        Lin k = prim_linear(pr, o, u, t0, t1 - t0);
-        return Taylor(k.v, 0.0, k.lo, k.hi);
-    }
-    return prim_taylor(pr, o, u, t0, t1, SC_METHOD == METHOD_QUADRATIC_TAYLOR);
-}
-
-// A group's bound: summed terms (Eq. 13-16, Eq. 19), or the summed
-// bottom-up quadratic bounds.
-Bound group_bound(Taylor s, Bound sum) {
-    if (bottom_up_quadratic()) return sum;
-    return SC_METHOD == METHOD_QUADRATIC_TAYLOR
-        ? Bound(s.value, s.slope, 0.5 * s.lo, s.slope, 0.5 * s.hi, 0.0)   // Eq. 19
-        : Bound(s.value, s.lo, 0.0, s.hi, 0.0, 0.0);                       // Eq. 13-15
-}
-
-// The bound of the specialised inclusion method for f = max over groups
-// (sums) - iso on [t0, t1]: per-primitive bounds add within a group
-// (Eq. 16), and groups combine by the bottom-up max (Section 5.2,
-// Appendix C). A validity interval may shorten t1 (Section 4.2): later
-// primitives are bounded on the shorter interval, and earlier bounds stay
-// valid on it.
-Bound method_bound(vec3 o, vec3 u, float t0, inout float t1) {
-    bool quadratic = SC_METHOD == METHOD_QUADRATIC_TAYLOR || bottom_up_quadratic();
-    uint n = globals.sizes.x;
-    float len = t1 - t0;
-    Bound zero = Bound(0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    Bound best = zero;
-    bool have = false;
-    // The Taylor and linear methods sum per-primitive terms, the bottom-up
-    // quadratic ones whole bounds; the specialization keeps one of the two.
-    Taylor s = Taylor(0.0, 0.0, 0.0, 0.0);
-    Bound sq = zero;
-    uint group = 0u;
-    for (uint i = 0u; i < n; ++i) {
-        if (!prim_active(i)) continue;
-        GpuPrimitive pr = prims[i];
-        if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
-            Bound g = group_bound(s, sq);
-            best = have ? max_bound(best, g, len, quadratic) : g;
-            have = true;
-            s = Taylor(0.0, 0.0, 0.0, 0.0);
-            sq = zero;
-            group = pr.ids.y;
-        }
-        if (bottom_up_quadratic()) {
-            // Only Gaussians shorten the interval: a copy keeps len
-            // loop-invariant for scenes without them.
-            float valid = len;
-            sq = quad_add(sq, prim_quad(pr, o, u, t0, valid));
-            if (SC_HAS_GAUSSIAN_POINT != 0u) len = valid;
-        } else {
-            Taylor k = prim_terms(pr, o, u, t0, t1);
-            s.value += k.value;
-            s.slope += k.slope;
-            s.lo += k.lo;
-            s.hi += k.hi;
-        }
-    }
-    Bound g = group_bound(s, sq);
-    best = have ? max_bound(best, g, len, quadratic) : g;
-    best.v -= globals.march.x;
-    t1 = t0 + len;
-    return best;
+Bound compact_plane_quad(GpuPrimitive pr, vec3 o, vec3 u, float t0, inout float len) {
+    vec2 s = plane_on_ray(pr, o, u, t0);
+    if (abs(s.y) < 1e-9) return quad_exact(slab_value(pr, s.x), 0.0, 0.0);
+    return compact_quad(pr.b.z, pr.b.y * s.y * s.y, pr.b.x / abs(s.y), 1.0, s.x / s.y, len);
 }
 
 // First τ > 0 with -g + A τ + B τ² = 0 (g >= 0), +inf when none; no

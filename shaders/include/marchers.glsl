@@ -1,7 +1,7 @@
 // The marchers, in the frame of Algorithm 1: from t, with f(t) < 0, each
 // method proposes a step that cannot pass the first root; the minimum step
 // overrides it; a crossing is registered when f >= 0 and refined by
-// bisection (BENCHMARKS.md, "Hits and the minimum step").
+// bisection (docs/benchmark-protocol.md, "Hits, the minimum step and refinement").
 //
 // A march runs in slices of a bounded number of loop turns, its state kept
 // in GpuMarchState between dispatches, so no dispatch runs unboundedly long
@@ -12,8 +12,7 @@
 #ifndef MARCHERS_GLSL
 #define MARCHERS_GLSL
 
-#include "field.glsl"
-#include "inclusion.glsl"
+#include "traverse.glsl"
 #include "shade.glsl"
 
 struct March {
@@ -96,7 +95,7 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
         step = abs(f) / globals.march.w;                      // Eq. 10
     } else if (SC_METHOD == METHOD_SEGMENT) {
         float lambda;
-        f = field_and_lipschitz(o, u, m.t, t_end, lambda);   // Eq. 11, BENCHMARKS.md
+        f = field_and_lipschitz(o, u, m.t, t_end, lambda);   // Eq. 11, docs/benchmark-protocol.md
         step = lambda > 0.0 ? min(abs(f) / lambda, len) : len;
     } else {
         Bound b = method_bound(o, u, m.t, t_end);   // may shorten t_end
@@ -110,7 +109,7 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
     // on the side its sign at the start says, and looks for the first
     // sign change from there.
     if (SC_SECONDARY != 0u && m.steps == 1u && f > 0.0) m.flags |= FLAG_INSIDE;
-    // A crossing: f >= 0 entering, f <= 0 again leaving (BENCHMARKS.md).
+    // A crossing: f >= 0 entering, f <= 0 again leaving (docs/benchmark-protocol.md).
     // Found after the first step, it lies in (t_prev, t] and is refined
     // over the next loop turns; a transparent march steps on meanwhile.
     bool inside = (m.flags & FLAG_INSIDE) != 0u;

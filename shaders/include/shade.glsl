@@ -3,7 +3,7 @@
 #ifndef SHADE_GLSL
 #define SHADE_GLSL
 
-#include "field.glsl"
+#include "traverse.glsl"
 
 // Outward unit normal at p (the field decreases outwards), or 0 where the
 // gradient vanishes.

@@ -4,8 +4,8 @@
 
 use glam::DVec3;
 
-use super::bounds::{field_bound, field_linear, next_root};
-use super::raa::field_raa;
+use super::bound::next_root;
+use super::fold::{field_bound, field_linear, field_raa};
 use super::reference::bisect;
 use super::Field;
 use super::quad::QuadSettings;

@@ -1,18 +1,23 @@
 //! The f64 CPU reference of every field: the same maths as the shaders, in
 //! double precision. It is the oracle for the tests and the benchmarks.
 
+pub mod bound;
 pub mod bounds;
+pub mod fold;
+pub mod kinds;
 pub mod march;
 pub mod quad;
 pub mod raa;
 pub mod reference;
 
+pub use kinds::{PrimEval, PrimitiveKind};
+
 use glam::DVec3;
 
-use crate::scene::{Kernel, Primitive, Scene};
+use crate::scene::{Kernel, Scene};
 
 /// `|dk/dd|` peaks at `d = R/√5` for the compact kernel, with value
-/// `96/(25√5) · w/R` (PAPER-NOTES.md).
+/// `96/(25√5) · w/R` (docs/paper-digest.md, section 0).
 pub const COMPACT_PEAK_SLOPE: f64 = 96.0 / (25.0 * 2.236_067_977_499_79);
 
 /// A point along the ray `o + t u` (`|u| = 1`): `(h², x0)`, `h²` the squared
@@ -98,88 +103,6 @@ impl KernelEval {
     }
 }
 
-/// A primitive, precomputed.
-#[derive(Clone, Copy, Debug)]
-pub enum PrimEval {
-    Point { center: DVec3, kernel: KernelEval },
-    Plane { normal: DVec3, offset: f64, kernel: KernelEval },
-}
-
-impl PrimEval {
-    pub fn new(p: &Primitive) -> PrimEval {
-        match *p {
-            Primitive::Point { center, kernel } => PrimEval::Point { center, kernel: KernelEval::new(kernel) },
-            Primitive::Plane { normal, offset, radius, weight } => PrimEval::Plane {
-                normal,
-                offset,
-                kernel: KernelEval::new(Kernel::Compact { radius, weight }),
-            },
-        }
-    }
-
-    pub fn kernel(&self) -> &KernelEval {
-        match self {
-            PrimEval::Point { kernel, .. } | PrimEval::Plane { kernel, .. } => kernel,
-        }
-    }
-
-    /// Value and gradient at `p`.
-    pub fn value_gradient(&self, p: DVec3) -> (f64, DVec3) {
-        match *self {
-            PrimEval::Point { center, kernel } => {
-                let d = p - center;
-                let q = d.length_squared();
-                (kernel.value(q), 2.0 * kernel.dq(q) * d)
-            }
-            PrimEval::Plane { normal, offset, kernel } => {
-                let s = normal.dot(p) - offset;
-                let q = s * s;
-                (kernel.value(q), 2.0 * kernel.dq(q) * s * normal)
-            }
-        }
-    }
-
-    pub fn value(&self, p: DVec3) -> f64 {
-        match *self {
-            PrimEval::Point { center, kernel } => kernel.value((p - center).length_squared()),
-            PrimEval::Plane { normal, offset, kernel } => {
-                let s = normal.dot(p) - offset;
-                kernel.value(s * s)
-            }
-        }
-    }
-
-    /// Segment tracing's bound on `|df/dt|` over `o + t u`, `t ∈ [ta, tb]`
-    /// (BENCHMARKS.md): the largest `|dk/dd|` over the segment's distance
-    /// range, times the largest `|∂d/∂t|` at its ends. Zero when the support
-    /// misses the segment.
-    pub fn segment_slope(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> f64 {
-        match *self {
-            PrimEval::Point { center, kernel } => {
-                let ca = o + ta * u - center;
-                let cb = o + tb * u - center;
-                let tc = (center - o).dot(u).clamp(ta, tb);
-                let lo = (o + tc * u - center).length();
-                if lo >= kernel.support() {
-                    return 0.0;
-                }
-                let (la, lb) = (ca.length(), cb.length());
-                let cos = |v: DVec3, l: f64| if l > 0.0 { (v.dot(u) / l).abs() } else { 1.0 };
-                kernel.max_slope(lo, la.max(lb)) * cos(ca, la).max(cos(cb, lb))
-            }
-            PrimEval::Plane { normal, offset, kernel } => {
-                let sa = normal.dot(o + ta * u) - offset;
-                let sb = normal.dot(o + tb * u) - offset;
-                let lo = if sa * sb <= 0.0 { 0.0 } else { sa.abs().min(sb.abs()) };
-                if lo >= kernel.support() {
-                    return 0.0;
-                }
-                kernel.max_slope(lo, sa.abs().max(sb.abs())) * normal.dot(u).abs()
-            }
-        }
-    }
-}
-
 /// The scene's field `f = max over groups of (sum of kernels) - iso`.
 #[derive(Clone, Debug)]
 pub struct Field {
@@ -190,47 +113,6 @@ pub struct Field {
 impl Field {
     pub fn new(scene: &Scene) -> Field {
         Field { groups: scene.groups.iter().map(|g| g.iter().map(PrimEval::new).collect()).collect(), iso: scene.iso }
-    }
-
-    /// `f(p)`: positive inside.
-    pub fn value(&self, p: DVec3) -> f64 {
-        self.groups
-            .iter()
-            .map(|g| g.iter().map(|prim| prim.value(p)).sum::<f64>())
-            .fold(f64::NEG_INFINITY, f64::max)
-            - self.iso
-    }
-
-    /// `f(p)` and its gradient (of the group that attains the max).
-    pub fn value_gradient(&self, p: DVec3) -> (f64, DVec3) {
-        let mut best = (f64::NEG_INFINITY, DVec3::ZERO);
-        for g in &self.groups {
-            let (v, grad) = g.iter().fold((0.0, DVec3::ZERO), |(v, gr), prim| {
-                let (pv, pg) = prim.value_gradient(p);
-                (v + pv, gr + pg)
-            });
-            if v > best.0 {
-                best = (v, grad);
-            }
-        }
-        (best.0 - self.iso, best.1)
-    }
-
-    /// Global Lipschitz constant of `f` (Eq. 10): for a max of sums, the
-    /// largest group sum of per-kernel peaks.
-    pub fn lipschitz(&self) -> f64 {
-        self.groups
-            .iter()
-            .map(|g| g.iter().map(|p| p.kernel().peak_slope).sum::<f64>())
-            .fold(0.0, f64::max)
-    }
-
-    /// Segment tracing's Lipschitz bound on `[ta, tb]` along the ray.
-    pub fn segment_lipschitz(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> f64 {
-        self.groups
-            .iter()
-            .map(|g| g.iter().map(|p| p.segment_slope(o, u, ta, tb)).sum::<f64>())
-            .fold(0.0, f64::max)
     }
 }
 

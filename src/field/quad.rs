@@ -16,83 +16,8 @@
 //! docs/paper-digest.md, section 5; each is checked here by containment
 //! tests and again on the GPU by tests/inclusion.rs.
 
-use glam::DVec3;
-
-use super::bounds::{Bound, max_bound};
-use super::{Field, PrimEval, point_on_ray};
-
-/// The upper bound of the Gaussian's `e^{-y}` where the query interval
-/// holds the ray's closest approach to the centre (so `y = α q` first falls
-/// then rises and `y(t0)` is no end of its range): the three answers of
-/// Figure 21.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum ExpUpper {
-    /// Shorten the interval to where `y(t0)` is still the largest value
-    /// (Figure 20, Figure 21 a): exact at t0, valid on the shorter interval.
-    Validity,
-    /// The chord of `e^{-y}` over the whole range of `y` (Figure 21 b):
-    /// valid on the whole interval but no longer exact at t0 (`e_hi > 0`).
-    RelaxedT0,
-    /// The chord from `y(t0)` to the far end, raised by a linear term that
-    /// covers the deficit at the closest approach (Figure 21 c): exact at
-    /// t0, looser at the field's maximum, valid on the whole interval.
-    RelaxedMax,
-}
-
-/// Which Gaussians impose validity intervals (with [`ExpUpper::Validity`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum ValidityScope {
-    /// Those whose peak along the ray reaches `GAUSSIAN_BOUNDS_FRACTION ·
-    /// iso`, the level that also bounds the scene. A fainter Gaussian
-    /// (which the paper clips away, Figure 14) is bounded by the relaxed
-    /// rule (c) instead: still exact at t0 and valid, but it no longer cuts
-    /// the interval at its closest approach, which each of them otherwise
-    /// does (Section 7.1: "a very small influence on the final field value
-    /// but ... unnecessary interval subdivisions").
-    #[default]
-    Significant,
-    /// Every Gaussian, as Appendix B alone reads.
-    Every,
-}
-
-impl ValidityScope {
-    pub fn name(self) -> &'static str {
-        match self {
-            ValidityScope::Significant => "significant",
-            ValidityScope::Every => "every",
-        }
-    }
-}
-
-/// The settings of the bottom-up quadratic bounds that are not the method.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct QuadSettings {
-    /// Compact kernels: the bound of the part of the interval inside the
-    /// support, extended to the whole interval by moving its control points
-    /// (Section 6.2.1, Figure 9). Off: `max(Q, 0)³` built on the whole
-    /// interval with the bottom-up maximum (Appendix C). The Taylor methods
-    /// use the same switch for a support entered after t0
-    /// (`bounds::entering_taylor`).
-    pub extension: bool,
-    pub validity: ValidityScope,
-}
-
-impl QuadSettings {
-    /// The peak along a ray below which a Gaussian imposes no validity
-    /// interval, for a scene of iso value `iso` (0: every Gaussian does).
-    pub fn validity_floor(&self, iso: f64) -> f64 {
-        match self.validity {
-            ValidityScope::Significant => crate::scene::GAUSSIAN_BOUNDS_FRACTION * iso,
-            ValidityScope::Every => 0.0,
-        }
-    }
-}
-
-impl Default for QuadSettings {
-    fn default() -> Self {
-        QuadSettings { extension: true, validity: ValidityScope::Significant }
-    }
-}
+use super::bound::{Bound, max_bound};
+pub use crate::settings::{ExpUpper, QuadSettings, ValidityScope};
 
 /// A bottom-up quadratic bound's rule for exp and its settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,44 +27,6 @@ pub struct QuadOptions {
     /// With [`ExpUpper::Validity`], Gaussians whose peak along the ray is
     /// below this impose no validity interval (0: every Gaussian does).
     pub validity_floor: f64,
-}
-
-impl Bound {
-    /// The exact quadratic `v + a τ + b τ²`.
-    pub fn exact(v: f64, a: f64, b: f64) -> Bound {
-        Bound { v, a_lo: a, b_lo: b, a_hi: a, b_hi: b, e_hi: 0.0, t_valid: f64::INFINITY }
-    }
-
-    /// 0 everywhere.
-    pub fn zero() -> Bound {
-        Bound::exact(0.0, 0.0, 0.0)
-    }
-
-    /// Sum of bounds (Eq. 16): coefficients add; valid where both are.
-    pub fn add(&self, g: &Bound) -> Bound {
-        Bound {
-            v: self.v + g.v,
-            a_lo: self.a_lo + g.a_lo,
-            b_lo: self.b_lo + g.b_lo,
-            a_hi: self.a_hi + g.a_hi,
-            b_hi: self.b_hi + g.b_hi,
-            e_hi: self.e_hi + g.e_hi,
-            t_valid: self.t_valid.min(g.t_valid),
-        }
-    }
-
-    /// `w` times the bound, `w >= 0`.
-    pub fn scaled(&self, w: f64) -> Bound {
-        Bound {
-            v: w * self.v,
-            a_lo: w * self.a_lo,
-            b_lo: w * self.b_lo,
-            a_hi: w * self.a_hi,
-            b_hi: w * self.b_hi,
-            e_hi: w * self.e_hi,
-            t_valid: self.t_valid,
-        }
-    }
 }
 
 /// Product of two forward quadratic bounds on `[0, len]` (Section 6.2,
@@ -217,7 +104,7 @@ pub fn mul(f: &Bound, g: &Bound, len: f64) -> Bound {
 /// The compact kernel `w (a - x²/R²)³` on `x ∈ [x0, x0 + len]`, bottom up
 /// as in Figure 11: the exact quadratic `Q = a - x²/R²`, then `Q·Q`, then
 /// `(Q·Q)·Q`.
-fn compact_quad(w: f64, inv_r2: f64, a: f64, x0: f64, len: f64, extension: bool) -> Bound {
+pub(super) fn compact_quad(w: f64, inv_r2: f64, a: f64, x0: f64, len: f64, extension: bool) -> Bound {
     if a <= 0.0 {
         return Bound::zero();
     }
@@ -296,7 +183,7 @@ pub fn exp_chord(w: f64, y0: f64, y1: f64) -> f64 {
 /// y stays within the chord's ends, which needs `y(t0)` to be an end of
 /// y's range: see [`ExpUpper`] for the case where it is not. May shorten
 /// `len`.
-fn gaussian_quad(w: f64, alpha: f64, h2: f64, x0: f64, len: &mut f64, rule: ExpUpper, validity_floor: f64) -> Bound {
+pub(super) fn gaussian_quad(w: f64, alpha: f64, h2: f64, x0: f64, len: &mut f64, rule: ExpUpper, validity_floor: f64) -> Bound {
     let y = |x: f64| alpha * (x * x + h2);
     let (y0, y1, c) = (y(x0), 2.0 * alpha * x0, alpha);
     let v = w * (-y0).exp();
@@ -338,52 +225,6 @@ fn gaussian_quad(w: f64, alpha: f64, h2: f64, x0: f64, len: &mut f64, rule: ExpU
     };
     b.a_hi += slope * y1;
     b.b_hi = slope * c;
-    b
-}
-
-impl PrimEval {
-    /// Bottom-up quadratic bound of this primitive along `o + t u` on
-    /// `[t0, t0 + len]`; a Gaussian may shorten `len`.
-    pub fn quadratic(&self, o: DVec3, u: DVec3, t0: f64, len: &mut f64, opts: QuadOptions) -> Bound {
-        match *self {
-            PrimEval::Point { center, kernel } => {
-                let (h2, x0) = point_on_ray(center, o, u, t0);
-                if kernel.gaussian {
-                    gaussian_quad(kernel.weight, kernel.inv, h2, x0, len, opts.exp_upper, opts.validity_floor)
-                } else {
-                    compact_quad(kernel.weight, kernel.inv, 1.0 - h2 * kernel.inv, x0, *len, opts.extension)
-                }
-            }
-            PrimEval::Plane { normal, offset, kernel } => {
-                // q = s², s = s0 + σ t: the compact kernel in x = s/σ with
-                // 1/R'² = σ²/R² and h = 0 (as in the linear bound).
-                let sigma = normal.dot(u);
-                let s0 = normal.dot(o + t0 * u) - offset;
-                if sigma.abs() < 1e-9 {
-                    return Bound::exact(kernel.value(s0 * s0), 0.0, 0.0);
-                }
-                compact_quad(kernel.weight, kernel.inv * sigma * sigma, 1.0, s0 / sigma, *len, opts.extension)
-            }
-        }
-    }
-}
-
-/// Bottom-up quadratic bound of the field minus iso on `[t0, t1]` (or the
-/// shorter interval `[t0, t_valid]` its validity intervals leave): sums
-/// within groups, the quadratic maximum of Appendix C across them.
-pub fn field_quadratic(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64, opts: QuadOptions) -> Bound {
-    let mut len = t1 - t0;
-    let mut best: Option<Bound> = None;
-    for g in &field.groups {
-        let s = g.iter().fold(Bound::zero(), |s, p| s.add(&p.quadratic(o, u, t0, &mut len, opts)));
-        best = Some(match best {
-            None => s,
-            Some(b) => max_bound(&b, &s, len, true),
-        });
-    }
-    let mut b = best.expect("a field has at least one group");
-    b.v -= field.iso;
-    b.t_valid = t0 + len;
     b
 }
 

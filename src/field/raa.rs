@@ -10,9 +10,7 @@
 //! clipping: a support that covers `[a, b]` keeps the affine form in the
 //! ray's ε, a partial one contributes its range united with 0.
 
-use glam::DVec3;
-
-use super::{Field, KernelEval, PrimEval, point_on_ray};
+use super::KernelEval;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Affine {
@@ -53,7 +51,7 @@ fn compact_poly(w: f64, inv_r2: f64, a: f64, x: Affine) -> Affine {
 }
 
 /// The compact kernel in x on `x ∈ [xa, xb]` (x = t - tc, so dx/dt = 1).
-fn compact_raa(k: &KernelEval, inv_r2: f64, h2: f64, xa: f64, xb: f64) -> Affine {
+pub(super) fn compact_raa(k: &KernelEval, inv_r2: f64, h2: f64, xa: f64, xb: f64) -> Affine {
     let a = 1.0 - h2 * inv_r2;
     if a <= 0.0 {
         return Affine::ZERO;
@@ -72,41 +70,6 @@ fn compact_raa(k: &KernelEval, inv_r2: f64, h2: f64, xa: f64, xb: f64) -> Affine
     Affine::from_range(lo.min(0.0), hi.max(0.0))
 }
 
-impl PrimEval {
-    /// This primitive along `o + t u`, `t ∈ [ta, tb]`, in revised affine
-    /// arithmetic. `ta == tb` is allowed.
-    pub fn raa(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> Affine {
-        match *self {
-            PrimEval::Point { center, kernel } => {
-                let (h2, xa) = point_on_ray(center, o, u, ta);
-                let xb = xa + (tb - ta);
-                if kernel.gaussian {
-                    let x = Affine { x0: 0.5 * (xa + xb), x1: 0.5 * (xb - xa), e: 0.0 };
-                    let y = x.mul(x).add(Affine { x0: h2, x1: 0.0, e: 0.0 }).scale(kernel.inv);
-                    exp_neg(y, kernel.inv * h2).scale(kernel.weight)
-                } else {
-                    compact_raa(&kernel, kernel.inv, h2, xa, xb)
-                }
-            }
-            PrimEval::Plane { normal, offset, kernel } => {
-                let sigma = normal.dot(u);
-                let sa = normal.dot(o + ta * u) - offset;
-                if sigma.abs() < 1e-9 {
-                    let v = kernel.value(sa * sa);
-                    return Affine { x0: v, x1: 0.0, e: 0.0 };
-                }
-                // x = s/σ: the compact kernel with 1/R'² = σ²/R², h = 0.
-                let sb = normal.dot(o + tb * u) - offset;
-                let (xa, xb) = (sa / sigma, sb / sigma);
-                let (lo, hi) = (xa.min(xb), xa.max(xb));
-                let r = compact_raa(&kernel, kernel.inv * sigma * sigma, 0.0, lo, hi);
-                // x runs against t when σ < 0: flip the ε term.
-                if sigma < 0.0 { Affine { x1: -r.x1, ..r } } else { r }
-            }
-        }
-    }
-}
-
 /// `e^{-y}` by min-range linearisation on the range of `y`, which is at
 /// least `y_min` (the true minimum of y along the ray).
 pub fn exp_neg(y: Affine, y_min: f64) -> Affine {
@@ -120,14 +83,3 @@ pub fn exp_neg(y: Affine, y_min: f64) -> Affine {
     Affine { x0: s * y.x0 + zeta, x1: s * y.x1, e: s.abs() * y.e + delta }
 }
 
-/// The range of `f = max over groups (sums) - iso` over `[ta, tb]`.
-pub fn field_raa(field: &Field, o: DVec3, u: DVec3, ta: f64, tb: f64) -> (f64, f64) {
-    let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
-    for g in &field.groups {
-        let s = g.iter().fold(Affine::ZERO, |s, p| s.add(p.raa(o, u, ta, tb)));
-        let (a, b) = s.range();
-        lo = lo.max(a);
-        hi = hi.max(b);
-    }
-    (lo - field.iso, hi - field.iso)
-}

@@ -314,6 +314,16 @@ impl Renderer {
         Ok(())
     }
 
+    /// Overwrites the primitive buffer with raw GPU records, as many as the
+    /// scene has: for tests of what the shaders make of records no scene
+    /// produces (a primitive kind they do not know).
+    pub fn upload_raw_primitives(&mut self, prims: &[GpuPrimitive]) -> Result<()> {
+        if prims.len() != self.scene.primitive_count() {
+            bail!("{} raw primitives for a scene of {}", prims.len(), self.scene.primitive_count());
+        }
+        self.prims.write(0, prims)
+    }
+
     fn pipeline(&mut self, entry: EntryPoint, method: Method) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
         let key = PipelineKey {
             entry,
@@ -359,12 +369,11 @@ impl Renderer {
         })
     }
 
-    /// The forward bound of `method` (an inclusion method) for each query: a
-    /// ray with `t0` in `o.w` and `t1` in `d.w`.
+    /// What `method` evaluates of the field for each query, a ray with `t0`
+    /// in `o.w` and `t1` in `d.w`: its forward bound, RAA's range, sphere
+    /// tracing's value and gradient at t0, segment tracing's value and
+    /// Lipschitz bound (see [`GpuBound`]).
     pub fn probe_bounds(&mut self, method: Method, queries: &[GpuRay]) -> Result<Vec<GpuBound>> {
-        if matches!(method, Method::Sphere | Method::Segment) {
-            bail!("{method} has no inclusion function to probe");
-        }
         let deadline = Instant::now() + self.timeout;
         let handles = self.pipeline(EntryPoint::BoundsProbe, method)?;
         let growth = self.growth.or(self.scene.marching.growth).unwrap_or_else(|| method.default_growth());

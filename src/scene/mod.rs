@@ -13,16 +13,14 @@ pub mod animation;
 
 pub use animation::{Animation, CameraPath, Motion, Scale};
 
-use crate::field::quad::{QuadSettings, ValidityScope};
+use crate::settings::{QuadSettings, ValidityScope};
 use crate::method::Method;
 
 /// Largest kernel weight or slope the GPU's f32 arithmetic takes with room
 /// to spare (f32 ends at 3.4e38).
 pub const GPU_FLOAT_LIMIT: f64 = 1e36;
 
-/// Fraction of the iso value below which a Gaussian kernel counts as zero
-/// for bounding the scene (the kernel itself is never truncated).
-pub const GAUSSIAN_BOUNDS_FRACTION: f64 = 1e-3;
+pub use crate::settings::GAUSSIAN_BOUNDS_FRACTION;
 
 /// A scene problem, one line: file, field, what is allowed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -78,7 +76,8 @@ pub struct Marching {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Kernel {
-    /// `weight · (1 - d²/radius²)³` for `d < radius`, else 0 (Eq. 7, PAPER-NOTES.md).
+    /// `weight · (1 - d²/radius²)³` for `d < radius`, else 0 (Eq. 7, lost from
+    /// the paper's text; our reading in docs/paper-digest.md, section 0).
     Compact { radius: f64, weight: f64 },
     /// `weight · exp(-s d²/r²)` (Eq. 6).
     Gaussian { r: f64, s: f64, weight: f64 },
@@ -209,7 +208,8 @@ impl Scene {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// Bisection tolerance for crossings: `1e-4 · R_min` (BENCHMARKS.md).
+    /// Bisection tolerance for crossings: `1e-4 · R_min` (docs/benchmark-protocol.md,
+    /// "Hits, the minimum step and refinement").
     pub fn refine_tolerance(&self) -> f64 {
         1e-4 * self.min_radius()
     }

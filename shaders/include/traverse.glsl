@@ -1,0 +1,338 @@
+// The one loop over primitives. Every evaluation of the field (value,
+// gradient, segment tracing's slope, the Taylor, linear, quadratic and RAA
+// bounds) is a fold: a cursor yields the primitives that can matter to a
+// query, one dispatch on the primitive's kind gives its terms, terms add up
+// within a group, and groups combine by max (Eq. 20). Mirrors the fold of
+// src/field/fold.rs.
+//
+// A spatial index replaces only the cursor. Its contract: it yields every
+// primitive whose support meets the query (a point, or the ray on
+// [t0, t1]), each once, and a group's primitives one after another (groups
+// in any order). The accumulator folds the group it is summing into the
+// max when the group changes. It starts on group 0, so a query that meets
+// no primitive still gets the empty sum, 0 - iso.
+#ifndef TRAVERSE_GLSL
+#define TRAVERSE_GLSL
+
+#include "field.glsl"
+#include "inclusion.glsl"
+
+// What a fold evaluates.
+const uint EVAL_VALUE = 0u;       // f at a point
+const uint EVAL_GRADIENT = 1u;    // f and the gradient of the group attaining the max
+const uint EVAL_LIPSCHITZ = 2u;   // f at t0 and segment tracing's bound on |f'| over [t0, t1]
+const uint EVAL_TAYLOR = 3u;      // linear or quadratic Taylor bound (SC_METHOD says which)
+const uint EVAL_LINEAR = 4u;      // bottom-up linear bound
+const uint EVAL_QUAD = 5u;        // bottom-up quadratic bound (may shorten the interval)
+const uint EVAL_RAA = 6u;         // revised affine arithmetic range
+
+// A query: the ray o + t u on [t0, t1]; a point query is at o.
+struct Query {
+    vec3 o;
+    vec3 u;
+    float t0;
+    float t1;
+};
+
+// --- The cursor: the flat list of primitives, in buffer order (sorted by
+// group), minus those per-ray culling ruled out.
+
+// With SC_CULL: bit i is set when primitive i's support meets the part of
+// the ray still to march (cull_to_ray), and the cursor skips the rest.
+// Skipped primitives contribute exactly 0, so values, bounds and step
+// counts are unchanged; only the work is.
+uvec2 g_mask = uvec2(0xffffffffu);
+
+// Does primitive pr's support meet o + t u, t in [ta, tb]? Gaussians have
+// unbounded support.
+bool meets_ray(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
+    switch (pr.ids.x) {
+    case PRIM_COMPACT_POINT: {
+        float tc = clamp(dot(pr.a.xyz - o, u), ta, tb);
+        return length(o + tc * u - pr.a.xyz) < pr.b.x;
+    }
+    case PRIM_COMPACT_PLANE: {
+        float sa = dot(pr.a.xyz, o + ta * u) - pr.a.w;
+        float sb = dot(pr.a.xyz, o + tb * u) - pr.a.w;
+        return sa * sb <= 0.0 || min(abs(sa), abs(sb)) < pr.b.x;
+    }
+    default:   // Gaussians, and kinds the evaluations will poison
+        return true;
+    }
+}
+
+// Sets g_mask to the primitives whose support meets o + t u, t in [ta, tb].
+// Only with SC_CULL, which the host sets for scenes of at most 64
+// primitives. This is the flat cursor's set-up, not an evaluation.
+void cull_to_ray(vec3 o, vec3 u, float ta, float tb) {
+    if (SC_CULL == 0u) return;
+    g_mask = uvec2(0u);
+    for (uint i = 0u; i < globals.sizes.x; ++i) {
+        if (meets_ray(prims[i], o, u, ta, tb)) g_mask[i >> 5u] |= 1u << (i & 31u);
+    }
+}
+
+// Every primitive visible again (culling kept only those ahead of the ray).
+void uncull() {
+    g_mask = uvec2(0xffffffffu);
+}
+
+// One loop turn per position; a position may yield a primitive or not (a
+// culled primitive here; an inner node of a tree for an index).
+struct Cursor {
+    uint at;
+};
+
+Cursor cursor_begin(Query q) {
+    return Cursor(0u);
+}
+
+bool cursor_valid(Cursor c) {
+    return c.at < globals.sizes.x;
+}
+
+bool cursor_yields(Cursor c) {
+    return SC_CULL == 0u || ((g_mask[c.at >> 5u] >> (c.at & 31u)) & 1u) != 0u;
+}
+
+uint cursor_primitive(Cursor c) {
+    return c.at;
+}
+
+void cursor_advance(inout Cursor c) {
+    c.at += 1u;
+}
+
+// --- Terms: what one primitive adds to its group's sum. Each evaluation
+// uses its own fields; the others are dead code once the fold is inlined
+// with a constant `what`.
+struct Terms {
+    float v;        // value at the point, or at t0
+    vec3 grad;      // EVAL_GRADIENT
+    float slope;    // EVAL_LIPSCHITZ: bound on |f'|; EVAL_TAYLOR: f'(t0)
+    float lo, hi;   // EVAL_TAYLOR: range of f' or f''; EVAL_LINEAR: slopes
+    Bound quad;     // EVAL_QUAD
+    vec3 raa;       // EVAL_RAA: x0 + x1 ε ± e
+    bool unknown;   // a primitive of a kind the shader does not know
+};
+
+Terms no_terms() {
+    return Terms(0.0, vec3(0.0), 0.0, 0.0, 0.0, Bound(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), vec3(0.0), false);
+}
+
+// A kind the shader does not know: the fold's every result becomes NaN
+// (poison_fold), so that a missing case shows rather than passing for
+// another kind's value.
+Terms poison_terms() {
+    Terms t = no_terms();
+    t.unknown = true;
+    return t;
+}
+
+Terms terms_add(Terms a, Terms b) {
+    return Terms(a.v + b.v, a.grad + b.grad, a.slope + b.slope, a.lo + b.lo, a.hi + b.hi, quad_add(a.quad, b.quad), a.raa + b.raa,
+                 a.unknown || b.unknown);
+}
+
+Terms taylor_terms(Taylor k) {
+    Terms t = no_terms();
+    t.v = k.value;
+    t.slope = k.slope;
+    t.lo = k.lo;
+    t.hi = k.hi;
+    return t;
+}
+
+Terms linear_terms(Lin k) {
+    Terms t = no_terms();
+    t.v = k.v;
+    t.lo = k.lo;
+    t.hi = k.hi;
+    return t;
+}
+
+// Quadratic Taylor (Eq. 19) or linear Taylor (Eq. 13-15).
+bool quadratic_taylor() {
+    return SC_METHOD == METHOD_QUADRATIC_TAYLOR;
+}
+
+// --- The interface of a kind: six functions named KIND_value,
+// KIND_lipschitz, KIND_taylor, KIND_linear, KIND_quad and KIND_raa (in
+// field.glsl and inclusion.glsl), from which KIND_TERMS makes its terms
+// for every evaluation. A kind missing one of them does not compile.
+#define KIND_TERMS(KIND)                                                                           \
+    Terms KIND##_terms(uint what, GpuPrimitive pr, Query q, inout float len) {                     \
+        Terms t = no_terms();                                                                      \
+        switch (what) {                                                                            \
+        case EVAL_VALUE:                                                                           \
+        case EVAL_GRADIENT: t.v = KIND##_value(pr, q.o, what == EVAL_GRADIENT, t.grad); break;     \
+        case EVAL_LIPSCHITZ:                                                                       \
+            t.v = KIND##_value(pr, q.o + q.t0 * q.u, false, t.grad);                               \
+            t.slope = KIND##_lipschitz(pr, q.o, q.u, q.t0, q.t1);                                  \
+            break;                                                                                 \
+        case EVAL_TAYLOR: t = taylor_terms(KIND##_taylor(pr, q.o, q.u, q.t0, q.t1, quadratic_taylor())); break; \
+        case EVAL_LINEAR: t = linear_terms(KIND##_linear(pr, q.o, q.u, q.t0, len)); break;        \
+        case EVAL_QUAD: t.quad = KIND##_quad(pr, q.o, q.u, q.t0, len); break;                      \
+        case EVAL_RAA: t.raa = KIND##_raa(pr, q.o, q.u, q.t0, q.t1); break;                        \
+        default: t = poison_terms();                                                               \
+        }                                                                                          \
+        return t;                                                                                  \
+    }
+
+KIND_TERMS(compact_point)
+KIND_TERMS(gaussian_point)
+KIND_TERMS(compact_plane)
+
+// The one dispatch on the primitive's kind: exhaustive, a kind the shader
+// does not know poisons the result. A kind the scene does not use is
+// compiled out (SC_HAS_*) and adds nothing.
+Terms prim_terms(uint what, GpuPrimitive pr, Query q, inout float len) {
+    switch (pr.ids.x) {
+    case PRIM_COMPACT_POINT: return SC_HAS_COMPACT_POINT != 0u ? compact_point_terms(what, pr, q, len) : no_terms();
+    case PRIM_GAUSSIAN_POINT: return SC_HAS_GAUSSIAN_POINT != 0u ? gaussian_point_terms(what, pr, q, len) : no_terms();
+    case PRIM_COMPACT_PLANE: return SC_HAS_COMPACT_PLANE != 0u ? compact_plane_terms(what, pr, q, len) : no_terms();
+    default: return poison_terms();
+    }
+}
+
+// --- The accumulator across groups: the max of the groups' sums.
+struct Fold {
+    float v;        // EVAL_VALUE, EVAL_GRADIENT, EVAL_LIPSCHITZ
+    vec3 grad;      // EVAL_GRADIENT
+    float slope;    // EVAL_LIPSCHITZ
+    Bound bound;    // EVAL_TAYLOR, EVAL_LINEAR, EVAL_QUAD
+    bool have;      //   whether `bound` holds a group yet
+    vec2 range;     // EVAL_RAA
+    bool poisoned;  // a group held a primitive of an unknown kind
+};
+
+// Every result NaN. (A NaN summed into a group would not survive the max
+// over groups, whose comparisons drop it.)
+void poison_fold(inout Fold r) {
+    float n = uintBitsToFloat(0x7fc00000u);
+    r.v = n;
+    r.grad = vec3(n);
+    r.slope = n;
+    r.bound = Bound(n, n, n, n, n, n);
+    r.range = vec2(n);
+}
+
+bool bounds_quadratic(uint what) {
+    return what == EVAL_QUAD || (what == EVAL_TAYLOR && quadratic_taylor());
+}
+
+// A group's sum as a bound on [0, len]: summed Taylor terms (Eq. 19 or
+// Eq. 13-15), summed linear slopes, or the summed quadratic bounds.
+Bound group_bound(uint what, Terms s) {
+    if (what == EVAL_QUAD) return s.quad;
+    if (what == EVAL_TAYLOR && quadratic_taylor()) return Bound(s.v, s.slope, 0.5 * s.lo, s.slope, 0.5 * s.hi, 0.0);   // Eq. 19
+    if (what == EVAL_TAYLOR) return Bound(s.v, s.lo, 0.0, s.hi, 0.0, 0.0);   // Eq. 13-15
+    return Bound(s.v, s.lo, 0.0, s.hi, 0.0, 0.0);                           // Section 5.2
+}
+
+// Folds one group's sum into the max over groups (for bounds, the
+// bottom-up max of Section 5.2 and Appendix C on [0, len]).
+void fold_group(uint what, Terms s, float len, inout Fold r) {
+    r.poisoned = r.poisoned || s.unknown;
+    switch (what) {
+    case EVAL_VALUE:
+    case EVAL_GRADIENT:
+        if (s.v > r.v) {
+            r.v = s.v;
+            r.grad = s.grad;
+        }
+        break;
+    case EVAL_LIPSCHITZ:
+        r.v = max(r.v, s.v);
+        r.slope = max(r.slope, s.slope);
+        break;
+    case EVAL_RAA:
+        r.range = max(r.range, aa_range(s.raa));
+        break;
+    default: {
+        Bound g = group_bound(what, s);
+        r.bound = r.have ? max_bound(r.bound, g, len, bounds_quadratic(what)) : g;
+        r.have = true;
+    }
+    }
+}
+
+// The fold: every primitive the cursor yields, its terms summed per group,
+// groups combined by max. `len` is the interval t1 - t0; EVAL_QUAD may
+// shorten it (a validity interval, Section 4.2): later primitives are
+// bounded on the shorter interval, and earlier bounds stay valid on it.
+// Iso is not subtracted here.
+Fold fold_field(uint what, Query q, inout float len) {
+    Fold r = Fold(-3.0e38, vec3(0.0), 0.0, Bound(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), false, vec2(-3.0e38), false);
+    Terms sum = no_terms();
+    uint group = 0u;
+    for (Cursor c = cursor_begin(q); cursor_valid(c); cursor_advance(c)) {
+        if (!cursor_yields(c)) continue;
+        GpuPrimitive pr = prims[cursor_primitive(c)];
+        if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
+            fold_group(what, sum, len, r);
+            sum = no_terms();
+            group = pr.ids.y;
+        }
+        // Only Gaussians shorten the interval: a copy keeps len
+        // loop-invariant for scenes without them.
+        float valid = len;
+        sum = terms_add(sum, prim_terms(what, pr, q, valid));
+        if (what == EVAL_QUAD && SC_HAS_GAUSSIAN_POINT != 0u) len = valid;
+    }
+    fold_group(what, sum, len, r);
+    if (r.poisoned) poison_fold(r);
+    return r;
+}
+
+// --- The evaluations the marchers use.
+
+// f(p) = max over groups of the group's sum, minus iso; with the gradient of
+// the group attaining the max when want_grad.
+float field_eval(vec3 p, bool want_grad, out vec3 grad) {
+    float len = 0.0;
+    Fold r = fold_field(want_grad ? EVAL_GRADIENT : EVAL_VALUE, Query(p, vec3(0.0), 0.0, 0.0), len);
+    grad = r.grad;
+    return r.v - globals.march.x;
+}
+
+float field(vec3 p) {
+    vec3 unused;
+    return field_eval(p, false, unused);
+}
+
+// f at o + ta u and segment tracing's Lipschitz bound on [ta, tb], in one
+// pass over the primitives: max over groups of sums for both.
+float field_and_lipschitz(vec3 o, vec3 u, float ta, float tb, out float lambda) {
+    float len = tb - ta;
+    Fold r = fold_field(EVAL_LIPSCHITZ, Query(o, u, ta, tb), len);
+    lambda = r.slope;
+    return r.v - globals.march.x;
+}
+
+// Range of f = max over groups (sums) - iso over [ta, tb].
+vec2 field_raa(vec3 o, vec3 u, float ta, float tb) {
+    float len = tb - ta;
+    return fold_field(EVAL_RAA, Query(o, u, ta, tb), len).range - globals.march.x;
+}
+
+bool bottom_up_quadratic() {
+    return SC_METHOD == METHOD_QUADRATIC || SC_METHOD == METHOD_QUADRATIC_RELAXED_T0 || SC_METHOD == METHOD_QUADRATIC_RELAXED_MAX;
+}
+
+// The bound of the specialised inclusion method for f = max over groups
+// (sums) - iso on [t0, t1]: per-primitive bounds add within a group
+// (Eq. 16), and groups combine by the bottom-up max (Section 5.2,
+// Appendix C). A validity interval may shorten t1 (Section 4.2).
+Bound method_bound(vec3 o, vec3 u, float t0, inout float t1) {
+    uint what = bottom_up_quadratic() ? EVAL_QUAD
+              : SC_METHOD == METHOD_LINEAR || SC_METHOD == METHOD_LINEAR_BISECTION ? EVAL_LINEAR
+              : EVAL_TAYLOR;
+    float len = t1 - t0;
+    Bound b = fold_field(what, Query(o, u, t0, t1), len).bound;
+    b.v -= globals.march.x;
+    t1 = t0 + len;
+    return b;
+}
+
+#endif

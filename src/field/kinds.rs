@@ -1,0 +1,265 @@
+//! The kinds of primitive, each behind one interface: every evaluation the
+//! marchers make of one primitive (value and gradient at a point, segment
+//! tracing's slope bound, the Taylor, linear, quadratic and RAA bounds along
+//! a ray). The mirror of the per-kind functions of
+//! `shaders/include/field.glsl` and `inclusion.glsl`.
+//!
+//! A kind maps the ray onto its kernel's argument (a point: the distance to
+//! its centre, `x² + h²` along the ray; a plane: the signed distance
+//! `s0 + σ t`) and hands the kernel algebra of `bounds.rs`, `quad.rs` and
+//! `raa.rs` what it needs. A kernel that is not radial (HRBF terms) is a
+//! new implementation of [`PrimitiveKind`] and a new [`PrimEval`] variant;
+//! the fold over primitives (`fold.rs`) does not change.
+
+use glam::DVec3;
+
+use super::bound::Bound;
+use super::bounds::{Lin, Order, Taylor, compact_derivs, compact_lin, kernel_taylor};
+use super::quad::{QuadOptions, compact_quad, gaussian_quad};
+use super::raa::{Affine, compact_raa, exp_neg};
+use super::{KernelEval, point_on_ray};
+use crate::scene::{Kernel, Primitive};
+
+/// Every evaluation of one primitive along a ray `o + t u`, `|u| = 1`.
+pub trait PrimitiveKind {
+    /// Value and gradient at `p`.
+    fn value_gradient(&self, p: DVec3) -> (f64, DVec3);
+
+    /// Value at `p`.
+    fn value(&self, p: DVec3) -> f64;
+
+    /// The global Lipschitz constant: the peak of `|dk/dd|` (Eq. 10).
+    fn lipschitz(&self) -> f64;
+
+    /// Segment tracing's bound on `|df/dt|` over `t ∈ [ta, tb]`
+    /// (docs/benchmark-protocol.md): the largest `|dk/dd|` over the
+    /// segment's distance range, times the largest `|∂d/∂t|` at its ends.
+    /// Zero when the support misses the segment.
+    fn segment_slope(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> f64;
+
+    /// Taylor data on `[t0, t1]` (value and slope at `t0`, range of the
+    /// order's derivative); with `extension`, a compact support entered
+    /// late gets the per-primitive bound of Section 6.2.1.
+    fn taylor(&self, o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order, extension: bool) -> Taylor;
+
+    /// Bottom-up linear bound on `[t0, t0 + len]`.
+    fn linear(&self, o: DVec3, u: DVec3, t0: f64, len: f64) -> Lin;
+
+    /// Bottom-up quadratic bound on `[t0, t0 + len]`; may shorten `len`
+    /// (a validity interval).
+    fn quadratic(&self, o: DVec3, u: DVec3, t0: f64, len: &mut f64, opts: QuadOptions) -> Bound;
+
+    /// Revised affine arithmetic on `[ta, tb]` (`ta == tb` is allowed).
+    fn raa(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> Affine;
+}
+
+/// A point primitive: a radial kernel of the distance to its centre.
+#[derive(Clone, Copy, Debug)]
+pub struct PointPrim {
+    pub center: DVec3,
+    pub kernel: KernelEval,
+}
+
+/// A plane primitive: the compact kernel of the signed distance
+/// `normal · p - offset`.
+#[derive(Clone, Copy, Debug)]
+pub struct PlanePrim {
+    pub normal: DVec3,
+    pub offset: f64,
+    pub kernel: KernelEval,
+}
+
+impl PrimitiveKind for PointPrim {
+    fn value_gradient(&self, p: DVec3) -> (f64, DVec3) {
+        let d = p - self.center;
+        let q = d.length_squared();
+        (self.kernel.value(q), 2.0 * self.kernel.dq(q) * d)
+    }
+
+    fn value(&self, p: DVec3) -> f64 {
+        self.kernel.value((p - self.center).length_squared())
+    }
+
+    fn lipschitz(&self) -> f64 {
+        self.kernel.peak_slope
+    }
+
+    fn segment_slope(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> f64 {
+        let (center, kernel) = (self.center, self.kernel);
+        let ca = o + ta * u - center;
+        let cb = o + tb * u - center;
+        let tc = (center - o).dot(u).clamp(ta, tb);
+        let lo = (o + tc * u - center).length();
+        if lo >= kernel.support() {
+            return 0.0;
+        }
+        let (la, lb) = (ca.length(), cb.length());
+        let cos = |v: DVec3, l: f64| if l > 0.0 { (v.dot(u) / l).abs() } else { 1.0 };
+        kernel.max_slope(lo, la.max(lb)) * cos(ca, la).max(cos(cb, lb))
+    }
+
+    fn taylor(&self, o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order, extension: bool) -> Taylor {
+        let (h2, x0) = point_on_ray(self.center, o, u, t0);
+        kernel_taylor(&self.kernel, h2, x0, x0 + (t1 - t0), order, extension)
+    }
+
+    fn linear(&self, o: DVec3, u: DVec3, t0: f64, len: f64) -> Lin {
+        let kernel = self.kernel;
+        let (h2, x0) = point_on_ray(self.center, o, u, t0);
+        if !kernel.gaussian {
+            return compact_lin(kernel.weight, kernel.inv, 1.0 - h2 * kernel.inv, x0, len);
+        }
+        // y = α(x² + h²) is convex: tangent below, chord above.
+        let y = Lin { v: kernel.inv * (x0 * x0 + h2), lo: 2.0 * kernel.inv * x0, hi: kernel.inv * (2.0 * x0 + len) };
+        // Far from t0 the chord of e^{-y} over the lower line's range can
+        // exceed any float; but |f'| never exceeds the kernel's Lipschitz
+        // constant, so by the mean value theorem slopes can be clamped to
+        // it (also tighter).
+        let k = y.exp_neg(kernel.weight, len);
+        Lin { v: k.v, lo: k.lo.max(-kernel.peak_slope), hi: k.hi.min(kernel.peak_slope) }
+    }
+
+    fn quadratic(&self, o: DVec3, u: DVec3, t0: f64, len: &mut f64, opts: QuadOptions) -> Bound {
+        let kernel = self.kernel;
+        let (h2, x0) = point_on_ray(self.center, o, u, t0);
+        if kernel.gaussian {
+            gaussian_quad(kernel.weight, kernel.inv, h2, x0, len, opts.exp_upper, opts.validity_floor)
+        } else {
+            compact_quad(kernel.weight, kernel.inv, 1.0 - h2 * kernel.inv, x0, *len, opts.extension)
+        }
+    }
+
+    fn raa(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> Affine {
+        let kernel = self.kernel;
+        let (h2, xa) = point_on_ray(self.center, o, u, ta);
+        let xb = xa + (tb - ta);
+        if !kernel.gaussian {
+            return compact_raa(&kernel, kernel.inv, h2, xa, xb);
+        }
+        let x = Affine { x0: 0.5 * (xa + xb), x1: 0.5 * (xb - xa), e: 0.0 };
+        let y = x.mul(x).add(Affine { x0: h2, x1: 0.0, e: 0.0 }).scale(kernel.inv);
+        exp_neg(y, kernel.inv * h2).scale(kernel.weight)
+    }
+}
+
+impl PlanePrim {
+    /// Signed distance at `p`.
+    fn distance(&self, p: DVec3) -> f64 {
+        self.normal.dot(p) - self.offset
+    }
+}
+
+/// Along a ray, a plane's kernel is the compact kernel in `x = s/σ` with
+/// `1/R'² = σ²/R²` and `h = 0`, `s = s0 + σ t` the signed distance; `None`
+/// for a ray parallel to the plane, where the kernel is constant.
+fn plane_as_point(kernel: &KernelEval, s0: f64, sigma: f64) -> Option<(f64, f64)> {
+    (sigma.abs() >= 1e-9).then(|| (kernel.inv * sigma * sigma, s0 / sigma))
+}
+
+impl PrimitiveKind for PlanePrim {
+    fn value_gradient(&self, p: DVec3) -> (f64, DVec3) {
+        let s = self.distance(p);
+        let q = s * s;
+        (self.kernel.value(q), 2.0 * self.kernel.dq(q) * s * self.normal)
+    }
+
+    fn value(&self, p: DVec3) -> f64 {
+        let s = self.distance(p);
+        self.kernel.value(s * s)
+    }
+
+    /// The signed distance has a unit gradient.
+    fn lipschitz(&self) -> f64 {
+        self.kernel.peak_slope
+    }
+
+    fn segment_slope(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> f64 {
+        let (sa, sb) = (self.distance(o + ta * u), self.distance(o + tb * u));
+        let lo = if sa * sb <= 0.0 { 0.0 } else { sa.abs().min(sb.abs()) };
+        if lo >= self.kernel.support() {
+            return 0.0;
+        }
+        self.kernel.max_slope(lo, sa.abs().max(sb.abs())) * self.normal.dot(u).abs()
+    }
+
+    fn taylor(&self, o: DVec3, u: DVec3, t0: f64, t1: f64, order: Order, _extension: bool) -> Taylor {
+        // Signed distance s = s0 + σ t: the kernel of s with h = 0,
+        // derivatives in t scaled by σ and σ².
+        let kernel = self.kernel;
+        let sigma = self.normal.dot(u);
+        let s0 = self.distance(o + t0 * u);
+        let s1 = self.distance(o + t1 * u);
+        let (lo, hi) = (s0.min(s1), s0.max(s1));
+        let mut k = kernel_taylor(&kernel, 0.0, lo, hi, order, false);
+        // kernel_taylor evaluated value/slope at `lo`; redo them at s0.
+        let (value, slope, _) = compact_derivs(kernel.weight, kernel.inv, 1.0, s0);
+        k.value = value;
+        k.slope = slope * sigma;
+        let scale = if order == Order::Linear { sigma } else { sigma * sigma };
+        let (a, b) = (k.min * scale, k.max * scale);
+        k.min = a.min(b);
+        k.max = a.max(b);
+        k
+    }
+
+    fn linear(&self, o: DVec3, u: DVec3, t0: f64, len: f64) -> Lin {
+        let s0 = self.distance(o + t0 * u);
+        match plane_as_point(&self.kernel, s0, self.normal.dot(u)) {
+            Some((inv_r2, x0)) => compact_lin(self.kernel.weight, inv_r2, 1.0, x0, len),
+            None => Lin { v: self.kernel.value(s0 * s0), lo: 0.0, hi: 0.0 },
+        }
+    }
+
+    fn quadratic(&self, o: DVec3, u: DVec3, t0: f64, len: &mut f64, opts: QuadOptions) -> Bound {
+        let s0 = self.distance(o + t0 * u);
+        match plane_as_point(&self.kernel, s0, self.normal.dot(u)) {
+            Some((inv_r2, x0)) => compact_quad(self.kernel.weight, inv_r2, 1.0, x0, *len, opts.extension),
+            None => Bound::exact(self.kernel.value(s0 * s0), 0.0, 0.0),
+        }
+    }
+
+    fn raa(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> Affine {
+        let sigma = self.normal.dot(u);
+        let sa = self.distance(o + ta * u);
+        let Some((inv_r2, xa)) = plane_as_point(&self.kernel, sa, sigma) else {
+            return Affine { x0: self.kernel.value(sa * sa), x1: 0.0, e: 0.0 };
+        };
+        let xb = self.distance(o + tb * u) / sigma;
+        let r = compact_raa(&self.kernel, inv_r2, 0.0, xa.min(xb), xa.max(xb));
+        // x runs against t when σ < 0: flip the ε term.
+        if sigma < 0.0 { Affine { x1: -r.x1, ..r } } else { r }
+    }
+}
+
+/// A primitive, precomputed: one variant per kind.
+#[derive(Clone, Copy, Debug)]
+pub enum PrimEval {
+    Point(PointPrim),
+    Plane(PlanePrim),
+}
+
+impl PrimEval {
+    pub fn new(p: &Primitive) -> PrimEval {
+        match *p {
+            Primitive::Point { center, kernel } => PrimEval::Point(PointPrim { center, kernel: KernelEval::new(kernel) }),
+            Primitive::Plane { normal, offset, radius, weight } => {
+                PrimEval::Plane(PlanePrim { normal, offset, kernel: KernelEval::new(Kernel::Compact { radius, weight }) })
+            }
+        }
+    }
+
+    /// This primitive's evaluations.
+    pub fn kind(&self) -> &dyn PrimitiveKind {
+        match self {
+            PrimEval::Point(p) => p,
+            PrimEval::Plane(p) => p,
+        }
+    }
+
+    pub fn kernel(&self) -> &KernelEval {
+        match self {
+            PrimEval::Point(p) => &p.kernel,
+            PrimEval::Plane(p) => &p.kernel,
+        }
+    }
+}
