@@ -28,7 +28,7 @@ use crate::gpu::{Context, ContextOptions, Presented, Presenter};
 use crate::layout::GpuRay;
 use crate::method::Method;
 use crate::output::{self, LEGEND_HEIGHT};
-use crate::render::Renderer;
+use crate::render::{MarchOptions, Renderer};
 use crate::render::offscreen::{march_frame, pixel_stats};
 use crate::render::rays::{PIXEL_TILE, camera_rays};
 use crate::scene::Scene;
@@ -390,9 +390,9 @@ impl App {
     fn march(&mut self, scene: &Scene, rays: &[GpuRay]) -> Result<crate::render::MarchOutput> {
         let gpu = self.gpu.as_mut().ok_or_else(|| anyhow!("no window"))?;
         gpu.renderer.set_scene(scene)?;
-        gpu.renderer.transparent = scene.transparency.is_some();
         let t = Instant::now();
-        let out = march_frame(&mut gpu.renderer, self.method, rays)?;
+        // Transparent as shown: T takes the posed scene's transparency away.
+        let out = march_frame(&mut gpu.renderer, self.method, MarchOptions::for_scene(scene), rays)?;
         let ns = t.elapsed().as_nanos() as f64 / rays.len().max(1) as f64;
         self.ns_per_ray = Some(self.ns_per_ray.map_or(ns, |old| 0.5 * (old + ns)));
         Ok(out)
