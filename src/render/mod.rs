@@ -64,7 +64,6 @@ impl PipelineKey {
 /// Rays per dispatch: big images become many bounded dispatches.
 pub const TILE_RAYS: usize = 1 << 16;
 const WORKGROUP: usize = 64;
-const BINDINGS: u32 = 8;
 const PUSH_CONSTANT_BYTES: u32 = 12;
 
 /// Loop iterations one invocation may run per dispatch. lavapipe silently
@@ -354,6 +353,13 @@ impl Renderer {
         Ok(())
     }
 
+    /// The buffers behind `layout::BINDINGS`, in binding order (the array's
+    /// length is the table's, so a binding added there fails to compile
+    /// until it has its buffer here).
+    fn bound_buffers(&self) -> [&Buffer; layout::BINDINGS.len()] {
+        [&self.globals, &self.prims, &self.lights, &self.rays, &self.results, &self.states, &self.active, &self.crossings]
+    }
+
     fn pipeline(
         &mut self,
         entry: EntryPoint,
@@ -367,8 +373,8 @@ impl Renderer {
                 EntryPoint::March => MARCH_SPV,
                 EntryPoint::BoundsProbe => BOUNDS_SPV,
             };
-            let p = ComputePipeline::new(&self.ctx, spirv, BINDINGS, PUSH_CONSTANT_BYTES, &spec)?;
-            p.bind(&[&self.globals, &self.prims, &self.lights, &self.rays, &self.results, &self.states, &self.active, &self.crossings])?;
+            let p = ComputePipeline::new(&self.ctx, spirv, layout::BINDINGS.len() as u32, PUSH_CONSTANT_BYTES, &spec)?;
+            p.bind(&self.bound_buffers())?;
             self.pipelines.insert(key, p);
         }
         let p = &self.pipelines[&key];
