@@ -1,7 +1,8 @@
 //! Compiles `shaders/*.comp` to SPIR-V with shaderc (glslang).
 //!
 //! Includes resolve against `shaders/include/` and the generated
-//! `layout.glsl` (from `src/layout.rs`, the single source of GPU layouts).
+//! `layout.glsl` and `layout_bindings.glsl` (from `src/layout.rs`, the
+//! single source of GPU layouts and descriptor bindings).
 //! Warnings are errors; a shader error fails the build with glslang's
 //! file:line message. SPIR-V lands in `OUT_DIR`, never in the tree.
 
@@ -30,6 +31,8 @@ fn run() -> Result<(), String> {
 
     let generated = layout::glsl();
     std::fs::write(out.join("layout.glsl"), &generated).map_err(|e| format!("writing layout.glsl: {e}"))?;
+    let bindings = layout::glsl_bindings_file();
+    std::fs::write(out.join("layout_bindings.glsl"), &bindings).map_err(|e| format!("writing layout_bindings.glsl: {e}"))?;
 
     for file in sorted_files(&include_dir, "glsl")? {
         println!("cargo:rerun-if-changed={}", file.display());
@@ -47,6 +50,12 @@ fn run() -> Result<(), String> {
             return Ok(shaderc::ResolvedInclude {
                 resolved_name: "layout.glsl (generated from src/layout.rs)".into(),
                 content: generated.clone(),
+            });
+        }
+        if name == "layout_bindings.glsl" {
+            return Ok(shaderc::ResolvedInclude {
+                resolved_name: "layout_bindings.glsl (generated from src/layout.rs)".into(),
+                content: bindings.clone(),
             });
         }
         let path = include_root.join(name);

@@ -196,7 +196,7 @@ pub fn run(
     use anyhow::Context as _;
 
     use crate::output::{png_bytes, write_atomic};
-    use crate::render::Renderer;
+    use crate::render::{MarchOptions, Renderer};
     use crate::render::rays::camera_rays;
 
     let frames: Vec<u64> = (range.start..range.end).filter(|&f| shard.contains(f)).collect();
@@ -233,6 +233,8 @@ pub fn run(
     renderer.timeout = job.timeout;
     let animated = !job.scene.animation.is_static();
     let (mut rays, mut pixels) = camera_rays(&still.camera, job.width, job.height, &still.bounds);
+    // Posing moves primitives and the camera, not the marching settings.
+    let options = MarchOptions::for_scene(&still);
     for (frame, path) in todo {
         if stop.load(Ordering::SeqCst) {
             summary.interrupted = true;
@@ -245,7 +247,7 @@ pub fn run(
             renderer.set_scene(&posed)?;
             (rays, pixels) = camera_rays(&posed.camera, job.width, job.height, &posed.bounds);
         }
-        let out = crate::render::offscreen::march_frame(&mut renderer, job.method, &rays)?;
+        let out = crate::render::offscreen::march_frame(&mut renderer, job.method, options, &rays)?;
         let image = crate::output::Frame::from_results(job.width, job.height, &out.results, &pixels);
         write_atomic(&path, &png_bytes(&image.shaded())?)?;
         let stats = crate::render::offscreen::pixel_stats(&out, &pixels);

@@ -10,14 +10,14 @@ use serde::Serialize;
 
 use crate::field::Field;
 use crate::field::march::{MarchSettings, march};
-use crate::field::quad::QuadSettings;
+use crate::settings::QuadSettings;
 use crate::field::reference::{ReferenceOptions, crossings};
 use crate::gpu::Context;
 use crate::layout::{FLAG_HIT, GpuResult, GpuRay};
 use crate::method::Method;
 use crate::output::MarchStats;
 use crate::render::rays::{Ray, protocol_rays};
-use crate::render::Renderer;
+use crate::render::{MarchOptions, Renderer};
 use crate::scene::{Kernel, Primitive, Scene};
 
 /// docs/benchmark-protocol.md: 1,048,576 rays unless told otherwise.
@@ -64,6 +64,12 @@ pub struct Variant {
 }
 
 impl Variant {
+    /// How the GPU marches `scene` in this variant (unshaded: a benchmark
+    /// reads hits and counts only).
+    pub fn options(&self, scene: &Scene) -> MarchOptions {
+        MarchOptions { shade: false, cull: self.cull, quad: self.quad, generic: self.generic, ..MarchOptions::for_scene(scene) }
+    }
+
     /// Does this variant differ from `other` in a way that changes
     /// `method` on `scene`?
     fn matters(&self, other: &Variant, method: Method, scene: &Scene) -> bool {
@@ -234,7 +240,6 @@ pub fn run(
     let reference = reference_crossings(scene, &ray_set, !transparent, true);
     let mut renderer = Renderer::new(ctx, scene)?;
     renderer.timeout = timeout;
-    renderer.shade = false;
     let default = variants.first().copied().unwrap_or(Variant { cull: true, quad: scene.marching.quad, generic: false });
     let mut reports: Vec<MethodReport> = Vec::new();
     for &method in methods {
@@ -276,11 +281,8 @@ fn run_one(
     let rays = ray_set.len();
     {
         let label = format!("{method}{}", variant.suffix(&default));
-        renderer.cull = variant.cull;
-        renderer.quad = variant.quad;
-        renderer.generic = variant.generic;
         let bar = progress(rays as u64, &label);
-        let out = renderer.march(method, ray_set, |done| bar.set_position(done as u64))?;
+        let out = renderer.march(method, variant.options(scene), ray_set, |done| bar.set_position(done as u64))?;
         bar.finish_and_clear();
         let stats = MarchStats::of(&out.results, out.gpu_ns);
         let (late, early) = (scene.marching.min_step, scene.refine_tolerance());

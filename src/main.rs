@@ -1,12 +1,19 @@
 //! The `isomarch` command line: parse, call the library, map errors to an
 //! exit code.
+//!
+//! Each subcommand has its arguments' struct and one function that runs it.
+//! Flags that several subcommands share are one `Args` struct each that
+//! checks and applies itself (`MarchArgs` to a scene, `VariantArgs` to the
+//! benchmark's variants, `GpuArgs` to the device), and every command that
+//! used the GPU ends with [`finish`].
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{Context as _, Result, bail};
-use clap::{Args, Parser, Subcommand};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use isomarch::gpu::{Context, ContextOptions, GpuError, list_devices};
 use isomarch::method::{Method, parse_list};
@@ -14,7 +21,7 @@ use isomarch::output::{self, Aov, png_bytes, write_atomic};
 use isomarch::render::offscreen::{RenderJob, render_frame, render_to_files};
 use isomarch::scene::Scene;
 use isomarch::bench;
-use isomarch::field::quad::{QuadSettings, ValidityScope};
+use isomarch::settings::{QuadSettings, ValidityScope};
 
 #[derive(Parser)]
 #[command(name = "isomarch", version, about = "Ray marching of implicit surfaces on Vulkan compute", long_about = "\
@@ -26,6 +33,31 @@ struct Cli {
     command: Command,
 }
 
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene offscreen to PNG, with optional heatmap, AOVs and statistics.
+    Render(RenderArgs),
+    /// Open a window that plays the scene's animation in scene time.
+    ///
+    /// Controls: drag to orbit, wheel to zoom, Space pause/play, Left/Right
+    /// step one frame (1/fps s), M next marcher, H step heatmap, T
+    /// transparency on/off, S save a screenshot, Esc quit. The title shows
+    /// frame time, FPS, marcher and mean steps per ray. While the view moves,
+    /// frames are marched at a lower resolution that fits --preview-ms; at
+    /// rest the full-resolution frame is marched in tiles over the preview.
+    View(ViewArgs),
+    /// List Vulkan devices and the limits that matter.
+    Info,
+    /// Measure the speed-accuracy trade: every method at each minimum step
+    /// and step budget on one seeded ray set, against the f64 reference.
+    /// Writes DIR/tradeoff.csv and a plot of time per ray against error
+    /// with the Pareto front (DIR/tradeoff.png and .svg).
+    Tradeoff(TradeoffArgs),
+    /// Compare marchers on the benchmark protocol (docs/benchmark-protocol.md): the same seeded rays for each.
+    Bench(BenchArgs),
+}
+
+/// The device flags of every command that uses the GPU.
 #[derive(Args)]
 struct GpuArgs {
     /// Vulkan device: index or name substring from `isomarch info` (default: discrete, then integrated, then CPU).
@@ -37,6 +69,86 @@ struct GpuArgs {
     /// Enable the Vulkan validation layer (also ISOMARCH_VALIDATION=1).
     #[arg(long)]
     validation: bool,
+}
+
+/// A command's device, opened without a window, and its `--timeout`.
+struct Session {
+    ctx: Arc<Context>,
+    timeout: Duration,
+}
+
+impl GpuArgs {
+    /// `--timeout`, checked.
+    fn timeout(&self) -> Result<Duration> {
+        if !(self.timeout.is_finite() && self.timeout > 0.0) {
+            bail!("--timeout must be a positive number of seconds, got {}", self.timeout);
+        }
+        Ok(Duration::from_secs_f64(self.timeout))
+    }
+
+    /// Opens the device for a command that renders offscreen; end with
+    /// [`finish`].
+    fn open(&self) -> Result<Session> {
+        let timeout = self.timeout()?;
+        let ctx = Context::new(&ContextOptions { validation: self.validation, device: self.device.clone(), present: None })?;
+        Ok(Session { ctx, timeout })
+    }
+}
+
+/// The marching flags of `render`, `view` and `bench`: overrides of the
+/// scene file's `marching` section.
+#[derive(Args)]
+struct MarchArgs {
+    /// Marcher (default: the scene's marching.method).
+    #[arg(long, value_enum)]
+    method: Option<Method>,
+    /// Override the scene's minimum step (scene units).
+    #[arg(long)]
+    min_step: Option<f64>,
+    /// Override the scene's step budget per ray.
+    #[arg(long)]
+    max_steps: Option<u32>,
+    /// Interval growth k of Algorithm 1 (next interval = k x last step);
+    /// default: the scene's, else 1.5 for segment, 3 for linear-taylor,
+    /// 2 for the other methods.
+    #[arg(long, value_name = "K")]
+    growth: Option<f64>,
+}
+
+impl MarchArgs {
+    /// Loads the scene at `path` with these overrides.
+    fn load(&self, path: &Path) -> Result<Scene> {
+        let mut scene = Scene::load(path)?;
+        self.apply(&mut scene)?;
+        Ok(scene)
+    }
+
+    /// Checks the overrides and writes them into `scene`'s marching
+    /// settings.
+    fn apply(&self, scene: &mut Scene) -> Result<()> {
+        if let Some(m) = self.method {
+            scene.marching.method = m;
+        }
+        if let Some(s) = self.min_step {
+            if !(s.is_finite() && s > 0.0) {
+                bail!("--min-step must be positive and finite, got {s}");
+            }
+            scene.marching.min_step = s;
+        }
+        if let Some(n) = self.max_steps {
+            if n == 0 {
+                bail!("--max-steps must be at least 1");
+            }
+            scene.marching.max_steps = n;
+        }
+        if let Some(k) = self.growth {
+            if !(k.is_finite() && k >= 1.0) {
+                bail!("--growth must be a finite number >= 1, got {k}");
+            }
+            scene.marching.growth = Some(k);
+        }
+        Ok(())
+    }
 }
 
 /// A sequence of frames: `-o` is then a pattern such as out/frame_####.png.
@@ -70,220 +182,239 @@ struct BatchArgs {
     csv: Option<PathBuf>,
 }
 
+/// `isomarch render`.
 #[derive(Args)]
-struct MarchArgs {
-    /// Marcher: sphere, segment, linear-taylor, quadratic-taylor, linear,
-    /// linear-bisection, raa, quadratic, quadratic-relaxed-t0 or
-    /// quadratic-relaxed-max (default: the scene's marching.method).
-    #[arg(long)]
-    method: Option<String>,
-    /// Override the scene's minimum step (scene units).
-    #[arg(long)]
-    min_step: Option<f64>,
-    /// Override the scene's step budget per ray.
-    #[arg(long)]
-    max_steps: Option<u32>,
-    /// Interval growth k of Algorithm 1 (next interval = k x last step);
-    /// default: the scene's, else 1.5 for segment, 3 for linear-taylor,
-    /// 2 for the other methods.
-    #[arg(long, value_name = "K")]
-    growth: Option<f64>,
+struct RenderArgs {
+    /// Scene file (RON).
+    scene: PathBuf,
+    /// Shaded image (PNG).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Image size as WxH, overriding the scene's camera.resolution.
+    #[arg(long, value_parser = parse_size)]
+    size: Option<(u32, u32)>,
+    /// Also write a step-count heatmap PNG with a legend.
+    #[arg(long, value_name = "PNG")]
+    heatmap: Option<PathBuf>,
+    /// Fix the heatmap scale (the paper's Figure 12 uses 75); default: the image's maximum.
+    #[arg(long, value_name = "N")]
+    steps_max: Option<u32>,
+    /// Per-pixel outputs written as 32-bit float OpenEXR.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    aov: Vec<Aov>,
+    /// Where to write the AOVs (default: the output path with .exr).
+    #[arg(long, value_name = "EXR")]
+    aov_output: Option<PathBuf>,
+    /// Write statistics (steps, evaluations, GPU time) as JSON.
+    #[arg(long, value_name = "JSON")]
+    stats: Option<PathBuf>,
+    #[command(flatten)]
+    batch: BatchArgs,
+    #[command(flatten)]
+    march: MarchArgs,
+    #[command(flatten)]
+    gpu: GpuArgs,
 }
 
-#[derive(Subcommand)]
-enum Command {
-    /// Render a scene offscreen to PNG, with optional heatmap, AOVs and statistics.
-    Render {
-        /// Scene file (RON).
-        scene: PathBuf,
-        /// Shaded image (PNG).
-        #[arg(short, long)]
-        output: PathBuf,
-        /// Image size as WxH, overriding the scene's camera.resolution.
-        #[arg(long, value_parser = parse_size)]
-        size: Option<(u32, u32)>,
-        /// Also write a step-count heatmap PNG with a legend.
-        #[arg(long, value_name = "PNG")]
-        heatmap: Option<PathBuf>,
-        /// Fix the heatmap scale (the paper's Figure 12 uses 75); default: the image's maximum.
-        #[arg(long, value_name = "N")]
-        steps_max: Option<u32>,
-        /// Per-pixel outputs written as 32-bit float OpenEXR.
-        #[arg(long, value_enum, value_delimiter = ',')]
-        aov: Vec<Aov>,
-        /// Where to write the AOVs (default: the output path with .exr).
-        #[arg(long, value_name = "EXR")]
-        aov_output: Option<PathBuf>,
-        /// Write statistics (steps, evaluations, GPU time) as JSON.
-        #[arg(long, value_name = "JSON")]
-        stats: Option<PathBuf>,
-        #[command(flatten)]
-        batch: BatchArgs,
-        #[command(flatten)]
-        march: MarchArgs,
-        #[command(flatten)]
-        gpu: GpuArgs,
-    },
-    /// Open a window that plays the scene's animation in scene time.
-    ///
-    /// Controls: drag to orbit, wheel to zoom, Space pause/play, Left/Right
-    /// step one frame (1/fps s), M next marcher, H step heatmap, T
-    /// transparency on/off, S save a screenshot, Esc quit. The title shows
-    /// frame time, FPS, marcher and mean steps per ray. While the view moves,
-    /// frames are marched at a lower resolution that fits --preview-ms; at
-    /// rest the full-resolution frame is marched in tiles over the preview.
-    View {
-        /// Scene file (RON).
-        scene: PathBuf,
-        /// Window size as WxH (default: the scene's camera.resolution).
-        #[arg(long, value_parser = parse_size)]
-        size: Option<(u32, u32)>,
-        /// Scene time to start at, seconds.
-        #[arg(long, default_value_t = 0.0)]
-        time: f64,
-        /// Start paused.
-        #[arg(long)]
-        paused: bool,
-        /// Frames per second of Left/Right stepping.
-        #[arg(long, default_value_t = 25.0)]
-        fps: f64,
-        /// Wall time one piece of rendering may take before the window
-        /// answers input again, in milliseconds.
-        #[arg(long, default_value_t = 80.0, value_name = "MS")]
-        preview_ms: f64,
-        /// Close after N presented frames (scripted runs and tests).
-        #[arg(long, value_name = "N")]
-        exit_after: Option<u64>,
-        /// At exit, save the last presented image to this PNG.
-        #[arg(long, value_name = "PNG")]
-        screenshot: Option<PathBuf>,
-        /// Folder where S saves screenshots.
-        #[arg(long, default_value = ".", value_name = "DIR")]
-        screenshot_dir: PathBuf,
-        #[command(flatten)]
-        march: MarchArgs,
-        #[command(flatten)]
-        gpu: GpuArgs,
-    },
-    /// List Vulkan devices and the limits that matter.
-    Info,
-    /// Measure the speed-accuracy trade: every method at each minimum step
-    /// and step budget on one seeded ray set, against the f64 reference.
-    /// Writes DIR/tradeoff.csv and a plot of time per ray against error
-    /// with the Pareto front (DIR/tradeoff.png and .svg).
-    Tradeoff {
-        /// Scene file (RON).
-        scene: PathBuf,
-        /// Comma-separated marchers (default sphere,segment,linear-taylor,
-        /// quadratic-taylor,quadratic; segment,quadratic-taylor with --quick).
-        #[arg(long)]
-        methods: Option<String>,
-        /// Minimum steps to sweep (comma-separated; default 1e-4,1e-3,1e-2,0.1,1).
-        #[arg(long, value_delimiter = ',')]
-        min_steps: Vec<f64>,
-        /// Step budgets to sweep (comma-separated; default 8,32,128,1000,10000).
-        #[arg(long = "max-steps-list", value_delimiter = ',')]
-        max_steps: Vec<u32>,
-        /// Rays (default 16384; 1024 with --quick).
-        #[arg(long)]
-        rays: Option<usize>,
-        /// Seed of the ray set.
-        #[arg(long, default_value_t = bench::DEFAULT_SEED)]
-        seed: u64,
-        /// A small sweep for CI: segment and quadratic-taylor unless
-        /// --methods says otherwise, minimum steps 0.01 and 0.1, budgets 32
-        /// and 1000, 1024 rays.
-        #[arg(long)]
-        quick: bool,
-        /// Output folder (default: tradeoff-<scene name>).
-        #[arg(short, long)]
-        output: Option<PathBuf>,
-        #[command(flatten)]
-        gpu: GpuArgs,
-    },
-    /// Compare marchers on the benchmark protocol (docs/benchmark-protocol.md): the same seeded rays for each.
-    Bench {
-        /// Scene file (RON).
-        scene: PathBuf,
-        /// Comma-separated marchers; ratios are to the first.
-        #[arg(long, default_value = "segment,sphere")]
-        methods: String,
-        /// Number of rays.
-        #[arg(long, default_value_t = bench::DEFAULT_RAYS)]
-        rays: usize,
-        /// Seed of the ray set.
-        #[arg(long, default_value_t = bench::DEFAULT_SEED)]
-        seed: u64,
-        /// Also write the report as JSON.
-        #[arg(long, value_name = "FILE")]
-        json: Option<PathBuf>,
-        /// Per-ray support culling (identical results, less work): on, off,
-        /// or both to measure it in one run.
-        #[arg(long, value_parser = ["on", "off", "both"], default_value = "on")]
-        cull: String,
-        /// Per-primitive bounds of compact kernels (Section 6.2.1) for the
-        /// Taylor and bottom-up quadratic methods: on, off, or both to measure it
-        /// in one run (default: the scene's marching.extension).
-        #[arg(long, value_parser = ["on", "off", "both"])]
-        extension: Option<String>,
-        /// Which Gaussians impose validity intervals on `quadratic`:
-        /// significant (peak on the ray >= 1e-3 iso), every, or both
-        /// (default: the scene's marching.validity).
-        #[arg(long, value_parser = ["significant", "every", "both"])]
-        validity: Option<String>,
-        /// Also run each method with generic pipelines (every primitive kind
-        /// and the max of groups compiled in) to measure what specialising
-        /// them to the scene buys; rows marked "generic".
-        #[arg(long)]
-        generic: bool,
-        /// Also render the scene's camera view with each method and write
-        /// their step heatmaps side by side on one scale (like Figure 10).
-        #[arg(long, value_name = "PNG")]
-        heatmap_grid: Option<PathBuf>,
-        /// Image size of each heatmap panel.
-        #[arg(long, value_parser = parse_size, default_value = "256x256")]
-        size: (u32, u32),
-        /// Top of the shared heatmap scale (default 75, as in the paper).
-        #[arg(long, default_value_t = 75)]
-        steps_max: u32,
-        #[command(flatten)]
-        march: MarchArgs,
-        #[command(flatten)]
-        gpu: GpuArgs,
-    },
+/// `isomarch view`.
+#[derive(Args)]
+struct ViewArgs {
+    /// Scene file (RON).
+    scene: PathBuf,
+    /// Window size as WxH (default: the scene's camera.resolution).
+    #[arg(long, value_parser = parse_size)]
+    size: Option<(u32, u32)>,
+    /// Scene time to start at, seconds.
+    #[arg(long, default_value_t = 0.0)]
+    time: f64,
+    /// Start paused.
+    #[arg(long)]
+    paused: bool,
+    /// Frames per second of Left/Right stepping.
+    #[arg(long, default_value_t = 25.0)]
+    fps: f64,
+    /// Wall time one piece of rendering may take before the window
+    /// answers input again, in milliseconds.
+    #[arg(long, default_value_t = 80.0, value_name = "MS")]
+    preview_ms: f64,
+    /// Close after N presented frames (scripted runs and tests).
+    #[arg(long, value_name = "N")]
+    exit_after: Option<u64>,
+    /// At exit, save the last presented image to this PNG.
+    #[arg(long, value_name = "PNG")]
+    screenshot: Option<PathBuf>,
+    /// Folder where S saves screenshots.
+    #[arg(long, default_value = ".", value_name = "DIR")]
+    screenshot_dir: PathBuf,
+    #[command(flatten)]
+    march: MarchArgs,
+    #[command(flatten)]
+    gpu: GpuArgs,
 }
 
-/// The variants a bench compares: the first is the default (the scene's
-/// settings, culling on unless `--cull off`), then each `both` adds the
-/// other value of its setting to every variant so far.
-fn bench_variants(scene: &Scene, cull: &str, extension: Option<&str>, validity: Option<&str>) -> Vec<bench::Variant> {
-    let mut base = bench::Variant { cull: cull != "off", quad: scene.marching.quad, generic: false };
-    match extension {
-        Some("on") => base.quad.extension = true,
-        Some("off") => base.quad.extension = false,
-        _ => {}
+/// `isomarch tradeoff`.
+#[derive(Args)]
+struct TradeoffArgs {
+    /// Scene file (RON).
+    scene: PathBuf,
+    /// Comma-separated marchers (default sphere,segment,linear-taylor,
+    /// quadratic-taylor,quadratic; segment,quadratic-taylor with --quick).
+    #[arg(long)]
+    methods: Option<String>,
+    /// Minimum steps to sweep (comma-separated; default 1e-4,1e-3,1e-2,0.1,1).
+    #[arg(long, value_delimiter = ',')]
+    min_steps: Vec<f64>,
+    /// Step budgets to sweep (comma-separated; default 8,32,128,1000,10000).
+    #[arg(long = "max-steps-list", value_delimiter = ',')]
+    max_steps: Vec<u32>,
+    /// Rays (default 16384; 1024 with --quick).
+    #[arg(long)]
+    rays: Option<usize>,
+    /// Seed of the ray set.
+    #[arg(long, default_value_t = bench::DEFAULT_SEED)]
+    seed: u64,
+    /// A small sweep for CI: segment and quadratic-taylor unless
+    /// --methods says otherwise, minimum steps 0.01 and 0.1, budgets 32
+    /// and 1000, 1024 rays.
+    #[arg(long)]
+    quick: bool,
+    /// Output folder (default: tradeoff-<scene name>).
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
+/// `isomarch bench`.
+#[derive(Args)]
+struct BenchArgs {
+    /// Scene file (RON).
+    scene: PathBuf,
+    /// Comma-separated marchers; ratios are to the first.
+    #[arg(long, default_value = "segment,sphere")]
+    methods: String,
+    /// Number of rays.
+    #[arg(long, default_value_t = bench::DEFAULT_RAYS)]
+    rays: usize,
+    /// Seed of the ray set.
+    #[arg(long, default_value_t = bench::DEFAULT_SEED)]
+    seed: u64,
+    /// Also write the report as JSON.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    #[command(flatten)]
+    variants: VariantArgs,
+    /// Also render the scene's camera view with each method and write
+    /// their step heatmaps side by side on one scale (like Figure 10).
+    #[arg(long, value_name = "PNG")]
+    heatmap_grid: Option<PathBuf>,
+    /// Image size of each heatmap panel.
+    #[arg(long, value_parser = parse_size, default_value = "256x256")]
+    size: (u32, u32),
+    /// Top of the shared heatmap scale (default 75, as in the paper).
+    #[arg(long, default_value_t = 75)]
+    steps_max: u32,
+    #[command(flatten)]
+    march: MarchArgs,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
+/// A setting that `bench` runs one way, or both ways to measure it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Switch {
+    On,
+    Off,
+    Both,
+}
+
+impl Switch {
+    /// The one value asked for; `None` for both.
+    fn only(self) -> Option<bool> {
+        match self {
+            Switch::On => Some(true),
+            Switch::Off => Some(false),
+            Switch::Both => None,
+        }
     }
-    match validity {
-        Some("significant") => base.quad.validity = ValidityScope::Significant,
-        Some("every") => base.quad.validity = ValidityScope::Every,
-        _ => {}
+}
+
+/// `--validity`: one `ValidityScope`, or both to compare them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ValidityChoice {
+    Significant,
+    Every,
+    Both,
+}
+
+impl ValidityChoice {
+    /// The one scope asked for; `None` for both.
+    fn only(self) -> Option<ValidityScope> {
+        match self {
+            ValidityChoice::Significant => Some(ValidityScope::Significant),
+            ValidityChoice::Every => Some(ValidityScope::Every),
+            ValidityChoice::Both => None,
+        }
     }
-    let mut variants = vec![base];
-    let mut add = |f: &dyn Fn(bench::Variant) -> bench::Variant| {
-        let more: Vec<_> = variants.iter().map(|&v| f(v)).collect();
-        variants.extend(more);
-    };
-    if cull == "both" {
-        add(&|v| bench::Variant { cull: !v.cull, ..v });
+}
+
+/// The settings a bench compares, each on, off or both.
+#[derive(Args)]
+struct VariantArgs {
+    /// Per-ray support culling (identical results, less work): on, off,
+    /// or both to measure it in one run.
+    #[arg(long, value_enum, default_value_t = Switch::On)]
+    cull: Switch,
+    /// Per-primitive bounds of compact kernels (Section 6.2.1) for the
+    /// Taylor and bottom-up quadratic methods: on, off, or both to measure it
+    /// in one run (default: the scene's marching.extension).
+    #[arg(long, value_enum)]
+    extension: Option<Switch>,
+    /// Which Gaussians impose validity intervals on `quadratic`:
+    /// significant (peak on the ray >= 1e-3 iso), every, or both
+    /// (default: the scene's marching.validity).
+    #[arg(long, value_enum)]
+    validity: Option<ValidityChoice>,
+    /// Also run each method with generic pipelines (every primitive kind
+    /// and the max of groups compiled in) to measure what specialising
+    /// them to the scene buys; rows marked "generic".
+    #[arg(long)]
+    generic: bool,
+}
+
+impl VariantArgs {
+    /// The variants a bench compares: the first is the default (the
+    /// scene's settings with what was asked for, culling on unless `--cull
+    /// off`), then each `both`, and `--generic`, adds the other value of
+    /// its setting to every variant so far.
+    fn variants(&self, scene: &Scene) -> Vec<bench::Variant> {
+        let mut base = bench::Variant { cull: self.cull.only().unwrap_or(true), quad: scene.marching.quad, generic: false };
+        if let Some(on) = self.extension.and_then(Switch::only) {
+            base.quad.extension = on;
+        }
+        if let Some(scope) = self.validity.and_then(ValidityChoice::only) {
+            base.quad.validity = scope;
+        }
+        let mut variants = vec![base];
+        let mut add = |f: &dyn Fn(bench::Variant) -> bench::Variant| {
+            let more: Vec<_> = variants.iter().map(|&v| f(v)).collect();
+            variants.extend(more);
+        };
+        if self.cull == Switch::Both {
+            add(&|v| bench::Variant { cull: !v.cull, ..v });
+        }
+        if self.extension == Some(Switch::Both) {
+            add(&|v| bench::Variant { quad: QuadSettings { extension: !v.quad.extension, ..v.quad }, ..v });
+        }
+        if self.validity == Some(ValidityChoice::Both) {
+            let other = |s| if s == ValidityScope::Every { ValidityScope::Significant } else { ValidityScope::Every };
+            add(&|v| bench::Variant { quad: QuadSettings { validity: other(v.quad.validity), ..v.quad }, ..v });
+        }
+        if self.generic {
+            add(&|v| bench::Variant { generic: true, ..v });
+        }
+        variants
     }
-    if extension == Some("both") {
-        add(&|v| bench::Variant { quad: QuadSettings { extension: !v.quad.extension, ..v.quad }, ..v });
-    }
-    if validity == Some("both") {
-        let other = |s| if s == ValidityScope::Every { ValidityScope::Significant } else { ValidityScope::Every };
-        add(&|v| bench::Variant { quad: QuadSettings { validity: other(v.quad.validity), ..v.quad }, ..v });
-    }
-    variants
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -295,270 +426,246 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     }
 }
 
-fn load_scene(path: &PathBuf, march: &MarchArgs) -> Result<Scene> {
-    let mut scene = Scene::load(path)?;
-    if let Some(m) = &march.method {
-        scene.marching.method = m.parse::<Method>().map_err(anyhow::Error::msg).context("--method")?;
+// Checks of flags that two subcommands declare, each with its own help.
+
+/// `--fps` of `render --frames` and `view`.
+fn check_fps(fps: f64) -> Result<f64> {
+    if !(fps.is_finite() && fps > 0.0) {
+        bail!("--fps must be positive, got {fps}");
     }
-    if let Some(s) = march.min_step {
-        if !(s.is_finite() && s > 0.0) {
-            bail!("--min-step must be positive and finite, got {s}");
-        }
-        scene.marching.min_step = s;
-    }
-    if let Some(n) = march.max_steps {
-        if n == 0 {
-            bail!("--max-steps must be at least 1");
-        }
-        scene.marching.max_steps = n;
-    }
-    if let Some(k) = march.growth {
-        if !(k.is_finite() && k >= 1.0) {
-            bail!("--growth must be a finite number >= 1, got {k}");
-        }
-        scene.marching.growth = Some(k);
-    }
-    Ok(scene)
+    Ok(fps)
 }
 
-/// `--timeout`, checked.
-fn timeout(gpu: &GpuArgs) -> Result<Duration> {
-    if !(gpu.timeout.is_finite() && gpu.timeout > 0.0) {
-        bail!("--timeout must be a positive number of seconds, got {}", gpu.timeout);
+/// `--time` of `render` and `view`.
+fn check_time(time: f64) -> Result<f64> {
+    if !time.is_finite() {
+        bail!("--time must be a finite number of seconds, got {time}");
     }
-    Ok(Duration::from_secs_f64(gpu.timeout))
+    Ok(time)
 }
 
-fn open(gpu: &GpuArgs) -> Result<(std::sync::Arc<Context>, Duration)> {
-    let timeout = timeout(gpu)?;
-    let ctx = Context::new(&ContextOptions { validation: gpu.validation, device: gpu.device.clone(), present: None })?;
-    Ok((ctx, timeout))
-}
-
-fn run(cli: Cli) -> Result<()> {
-    match cli.command {
-        Command::Info => {
-            for d in list_devices()? {
-                println!("{}: {} ({}, Vulkan {})", d.index, d.name, d.kind, d.api_version);
-                println!("    max storage buffer:       {} MiB", d.max_storage_buffer_range >> 20);
-                println!("    max workgroup invocations: {}", d.max_compute_workgroup_invocations);
-                println!("    max workgroup count:      {:?}", d.max_compute_workgroup_count);
-                println!("    timestamps:               {} ({} ns/tick)", d.timestamps, d.timestamp_period_ns);
-                println!("    memory heaps:             {:?} MiB", d.memory_heaps_mib);
-            }
-            Ok(())
-        }
-        Command::Render { scene, output, size, heatmap, steps_max, aov, aov_output, stats, batch, march, gpu } => {
-            let scene = load_scene(&scene, &march)?;
-            let (width, height) = size.unwrap_or((scene.camera.width, scene.camera.height));
-            if let Some(range) = batch.frames {
-                if heatmap.is_some() || !aov.is_empty() || stats.is_some() || aov_output.is_some() || steps_max.is_some() {
-                    bail!("--frames writes shaded PNGs and a statistics CSV (--csv); --heatmap, --steps-max, --aov, --aov-output and --stats are for single frames");
-                }
-                if !(batch.fps.is_finite() && batch.fps > 0.0) {
-                    bail!("--fps must be positive, got {}", batch.fps);
-                }
-                let pattern = output.to_string_lossy().into_owned();
-                isomarch::batch::frame_path(&pattern, range.start)?;
-                let shard = isomarch::batch::Shard::resolve(batch.shard.as_deref(), batch.shard_count, |k| std::env::var(k).ok())?;
-                let csv = batch.csv.unwrap_or_else(|| {
-                    output.parent().filter(|p| !p.as_os_str().is_empty()).map_or_else(|| PathBuf::from("frames.csv"), |p| p.join("frames.csv"))
-                });
-                let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-                let flag = std::sync::Arc::clone(&stop);
-                ctrlc::set_handler(move || {
-                    if flag.swap(true, std::sync::atomic::Ordering::SeqCst) {
-                        // A second Ctrl-C: leave now. Files are renamed into
-                        // place whole, so none is half-written.
-                        std::process::exit(130);
-                    }
-                    eprintln!("\nstopping after the frame in flight (Ctrl-C again to quit now)");
-                })
-                .context("installing the Ctrl-C handler")?;
-                let (ctx, timeout) = open(&gpu)?;
-                let method = scene.marching.method;
-                let job = RenderJob::new(scene, method, (width, height), output.clone(), timeout);
-                let s = isomarch::batch::run(&ctx, &job, &pattern, range, batch.fps, shard, batch.skip_existing, &csv, &stop)?;
-                eprintln!(
-                    "{} frames rendered, {} kept from disk (shard {}/{}); statistics in {}",
-                    s.rendered,
-                    s.skipped,
-                    shard.index,
-                    shard.count,
-                    csv.display()
-                );
-                save_cache(&ctx);
-                check_validation(&ctx)?;
-                if s.interrupted {
-                    eprintln!("interrupted: rerun with --skip-existing to render the rest");
-                    return Err(Interrupted.into());
-                }
-                return Ok(());
-            }
-            if !batch.time.is_finite() {
-                bail!("--time must be a finite number of seconds, got {}", batch.time);
-            }
-            let scene = scene.at_time(batch.time);
-            let (ctx, timeout) = open(&gpu)?;
-            let method = scene.marching.method;
-            let job = RenderJob {
-                heatmap,
-                steps_max,
-                aovs: aov,
-                aov_output,
-                stats,
-                ..RenderJob::new(scene, method, (width, height), output, timeout)
-            };
-            let s = render_to_files(&ctx, &job)?;
-            eprintln!(
-                "{}: {}x{} with {} on {}: {:.2} steps/ray, {:.1} evals/ray, hit rate {:.3}{}",
-                job.output.display(),
-                s.width,
-                s.height,
-                s.method,
-                s.device,
-                s.march.steps_per_ray,
-                s.march.evals_per_ray,
-                s.march.hit_rate,
-                s.march.gpu_ms.map_or(String::new(), |ms| format!(", GPU {ms:.1} ms"))
-            );
-            save_cache(&ctx);
-            check_validation(&ctx)
-        }
-        Command::View { scene, size, time, paused, fps, preview_ms, exit_after, screenshot, screenshot_dir, march, gpu } => {
-            let scene = load_scene(&scene, &march)?;
-            if !(fps.is_finite() && fps > 0.0) {
-                bail!("--fps must be positive, got {fps}");
-            }
-            if !(preview_ms.is_finite() && preview_ms > 0.0) {
-                bail!("--preview-ms must be positive, got {preview_ms}");
-            }
-            if !time.is_finite() {
-                bail!("--time must be a finite number of seconds, got {time}");
-            }
-            let timeout = timeout(&gpu)?;
-            let options = isomarch::view::ViewOptions {
-                method: scene.marching.method,
-                size: size.unwrap_or((scene.camera.width, scene.camera.height)),
-                scene,
-                time,
-                paused,
-                fps,
-                preview: Duration::from_secs_f64(preview_ms / 1e3),
-                exit_after,
-                screenshot,
-                screenshot_dir,
-                device: gpu.device,
-                validation: gpu.validation,
-                timeout,
-            };
-            let s = isomarch::view::run(options)?;
-            println!(
-                "presented {} frames ({} at full resolution) in {:.1} s; last: {}, {:.2} steps/ray",
-                s.presented, s.full_frames, s.seconds, s.method, s.steps_per_ray
-            );
-            match &s.ctx {
-                Some(ctx) => {
-                    save_cache(ctx);
-                    check_validation(ctx)
-                }
-                None => Ok(()),
-            }
-        }
-        Command::Tradeoff { scene: path, methods, min_steps, max_steps, rays, seed, quick, output, gpu } => {
-            let scene = Scene::load(&path)?.at_time(0.0);
-            let default = if quick { "segment,quadratic-taylor" } else { "sphere,segment,linear-taylor,quadratic-taylor,quadratic" };
-            let methods = parse_list(methods.as_deref().unwrap_or(default)).map_err(anyhow::Error::msg).context("--methods")?;
-            let mut sweep = if quick { isomarch::tradeoff::Sweep::quick(methods) } else { isomarch::tradeoff::Sweep::full(methods) };
-            if !min_steps.is_empty() {
-                if let Some(bad) = min_steps.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
-                    bail!("--min-steps must be positive, got {bad}");
-                }
-                sweep.min_steps = min_steps;
-            }
-            if !max_steps.is_empty() {
-                if max_steps.contains(&0) {
-                    bail!("--max-steps-list must be at least 1");
-                }
-                sweep.max_steps = max_steps;
-            }
-            if let Some(n) = rays {
-                if n == 0 {
-                    bail!("--rays must be at least 1");
-                }
-                sweep.rays = n;
-            }
-            sweep.seed = seed;
-            let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-            let dir = output.unwrap_or_else(|| PathBuf::from(format!("tradeoff-{stem}")));
-            let (ctx, timeout) = open(&gpu)?;
-            let total = sweep.methods.len() * sweep.min_steps.len() * sweep.max_steps.len();
-            let bar = indicatif::ProgressBar::new(total as u64);
-            bar.set_style(
-                indicatif::ProgressStyle::with_template("tradeoff [{bar:30}] {pos}/{len} settings ({eta} left)")
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-                    .progress_chars("=> "),
-            );
-            let points = isomarch::tradeoff::run(&ctx, &scene, &sweep, timeout, |n| bar.set_position(n as u64))?;
-            bar.finish_and_clear();
-            write_atomic(&dir.join("tradeoff.csv"), isomarch::tradeoff::csv(&points).as_bytes())?;
-            let title = format!("{stem}: time per ray against error, {} rays on {}", sweep.rays, ctx.info.name);
-            isomarch::tradeoff::plot(&points, &title, &dir.join("tradeoff.png"), &dir.join("tradeoff.svg"))?;
-            eprintln!("{} settings; Pareto front:", points.len());
-            for p in points.iter().filter(|p| p.pareto) {
-                eprintln!(
-                    "  {:<18} min step {:<7} max steps {:<6} {} ns/ray, error {:.2e}, miss rate {:.5}",
-                    p.method,
-                    p.min_step,
-                    p.max_steps,
-                    p.ns_per_ray.map_or("n/a".into(), |v| format!("{v:.0}")),
-                    p.error,
-                    p.miss_rate
-                );
-            }
-            eprintln!("wrote {}/tradeoff.csv, .png, .svg", dir.display());
-            save_cache(&ctx);
-            check_validation(&ctx)
-        }
-        Command::Bench { scene, methods, rays, seed, json, cull, extension, validity, generic, heatmap_grid, size, steps_max, march, gpu } => {
-            let methods = parse_list(&methods).map_err(anyhow::Error::msg).context("--methods")?;
-            if rays == 0 {
-                bail!("--rays must be at least 1");
-            }
-            // An animated scene is measured as posed at time 0.
-            let scene = load_scene(&scene, &march)?.at_time(0.0);
-            let (ctx, timeout) = open(&gpu)?;
-            let mut variants = bench_variants(&scene, &cull, extension.as_deref(), validity.as_deref());
-            if generic {
-                let more: Vec<_> = variants.iter().map(|&v| bench::Variant { generic: true, ..v }).collect();
-                variants.extend(more);
-            }
-            let report = bench::run(&ctx, &scene, &methods, &variants, rays, seed, timeout)?;
-            print!("{}", bench::markdown(&report));
-            if let Some(path) = json {
-                write_atomic(&path, &serde_json::to_vec_pretty(&report)?)?;
-            }
-            if let Some(path) = heatmap_grid {
-                // The grid shows the first variant's settings.
-                let mut scene = scene.clone();
-                scene.marching.quad = variants[0].quad;
-                let mut panels = Vec::new();
-                for &method in &methods {
-                    let job = RenderJob::new(scene.clone(), method, size, PathBuf::new(), timeout);
-                    let (frame, _) = render_frame(&ctx, &job)?;
-                    panels.push((method.to_string(), frame.steps()));
-                }
-                let grid = output::heatmap_grid(size.0, size.1, &panels, Some(steps_max));
-                write_atomic(&path, &png_bytes(&grid)?)?;
-            }
-            save_cache(&ctx);
-            check_validation(&ctx)
-        }
+/// `--rays` of `tradeoff` and `bench`.
+fn check_rays(rays: usize) -> Result<usize> {
+    if rays == 0 {
+        bail!("--rays must be at least 1");
     }
+    Ok(rays)
 }
 
-/// With validation on, any message is a failure worth an exit code.
-fn check_validation(ctx: &Context) -> Result<()> {
+/// `--methods` of `tradeoff` and `bench`: a comma-separated list.
+fn parse_methods(list: &str) -> Result<Vec<Method>> {
+    parse_list(list).map_err(anyhow::Error::msg).context("--methods")
+}
+
+fn info() -> Result<()> {
+    for d in list_devices()? {
+        println!("{}: {} ({}, Vulkan {})", d.index, d.name, d.kind, d.api_version);
+        println!("    max storage buffer:       {} MiB", d.max_storage_buffer_range >> 20);
+        println!("    max workgroup invocations: {}", d.max_compute_workgroup_invocations);
+        println!("    max workgroup count:      {:?}", d.max_compute_workgroup_count);
+        println!("    timestamps:               {} ({} ns/tick)", d.timestamps, d.timestamp_period_ns);
+        println!("    memory heaps:             {:?} MiB", d.memory_heaps_mib);
+    }
+    Ok(())
+}
+
+fn render(args: RenderArgs) -> Result<()> {
+    let scene = args.march.load(&args.scene)?;
+    let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
+    if let Some(range) = args.batch.frames {
+        return render_frames(args, range, scene, size);
+    }
+    let scene = scene.at_time(check_time(args.batch.time)?);
+    let gpu = args.gpu.open()?;
+    let method = scene.marching.method;
+    let job = RenderJob {
+        heatmap: args.heatmap,
+        steps_max: args.steps_max,
+        aovs: args.aov,
+        aov_output: args.aov_output,
+        stats: args.stats,
+        ..RenderJob::new(scene, method, size, args.output, gpu.timeout)
+    };
+    let s = render_to_files(&gpu.ctx, &job)?;
+    eprintln!(
+        "{}: {}x{} with {} on {}: {:.2} steps/ray, {:.1} evals/ray, hit rate {:.3}{}",
+        job.output.display(),
+        s.width,
+        s.height,
+        s.method,
+        s.device,
+        s.march.steps_per_ray,
+        s.march.evals_per_ray,
+        s.march.hit_rate,
+        s.march.gpu_ms.map_or(String::new(), |ms| format!(", GPU {ms:.1} ms"))
+    );
+    finish(&gpu.ctx)
+}
+
+/// `render --frames`: a batch of PNGs and their statistics CSV.
+fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Scene, size: (u32, u32)) -> Result<()> {
+    let RenderArgs { output, batch, .. } = args;
+    if args.heatmap.is_some() || !args.aov.is_empty() || args.stats.is_some() || args.aov_output.is_some() || args.steps_max.is_some() {
+        bail!("--frames writes shaded PNGs and a statistics CSV (--csv); --heatmap, --steps-max, --aov, --aov-output and --stats are for single frames");
+    }
+    let fps = check_fps(batch.fps)?;
+    let pattern = output.to_string_lossy().into_owned();
+    isomarch::batch::frame_path(&pattern, range.start)?;
+    let shard = isomarch::batch::Shard::resolve(batch.shard.as_deref(), batch.shard_count, |k| std::env::var(k).ok())?;
+    let csv = batch.csv.unwrap_or_else(|| {
+        output.parent().filter(|p| !p.as_os_str().is_empty()).map_or_else(|| PathBuf::from("frames.csv"), |p| p.join("frames.csv"))
+    });
+    let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    ctrlc::set_handler(move || {
+        if flag.swap(true, std::sync::atomic::Ordering::SeqCst) {
+            // A second Ctrl-C: leave now. Files are renamed into
+            // place whole, so none is half-written.
+            std::process::exit(130);
+        }
+        eprintln!("\nstopping after the frame in flight (Ctrl-C again to quit now)");
+    })
+    .context("installing the Ctrl-C handler")?;
+    let gpu = args.gpu.open()?;
+    let method = scene.marching.method;
+    let job = RenderJob::new(scene, method, size, output.clone(), gpu.timeout);
+    let s = isomarch::batch::run(&gpu.ctx, &job, &pattern, range, fps, shard, batch.skip_existing, &csv, &stop)?;
+    eprintln!(
+        "{} frames rendered, {} kept from disk (shard {}/{}); statistics in {}",
+        s.rendered,
+        s.skipped,
+        shard.index,
+        shard.count,
+        csv.display()
+    );
+    finish(&gpu.ctx)?;
+    if s.interrupted {
+        eprintln!("interrupted: rerun with --skip-existing to render the rest");
+        return Err(Interrupted.into());
+    }
+    Ok(())
+}
+
+fn view(args: ViewArgs) -> Result<()> {
+    let scene = args.march.load(&args.scene)?;
+    let fps = check_fps(args.fps)?;
+    if !(args.preview_ms.is_finite() && args.preview_ms > 0.0) {
+        bail!("--preview-ms must be positive, got {}", args.preview_ms);
+    }
+    let time = check_time(args.time)?;
+    let timeout = args.gpu.timeout()?;
+    let options = isomarch::view::ViewOptions {
+        method: scene.marching.method,
+        size: args.size.unwrap_or((scene.camera.width, scene.camera.height)),
+        scene,
+        time,
+        paused: args.paused,
+        fps,
+        preview: Duration::from_secs_f64(args.preview_ms / 1e3),
+        exit_after: args.exit_after,
+        screenshot: args.screenshot,
+        screenshot_dir: args.screenshot_dir,
+        device: args.gpu.device,
+        validation: args.gpu.validation,
+        timeout,
+    };
+    let s = isomarch::view::run(options)?;
+    println!(
+        "presented {} frames ({} at full resolution) in {:.1} s; last: {}, {:.2} steps/ray",
+        s.presented, s.full_frames, s.seconds, s.method, s.steps_per_ray
+    );
+    // No context: the window closed before the device was opened.
+    s.ctx.as_deref().map_or(Ok(()), finish)
+}
+
+fn tradeoff(args: TradeoffArgs) -> Result<()> {
+    let TradeoffArgs { scene: path, methods, min_steps, max_steps, rays, seed, quick, output, gpu } = args;
+    let scene = Scene::load(&path)?.at_time(0.0);
+    let default = if quick { "segment,quadratic-taylor" } else { "sphere,segment,linear-taylor,quadratic-taylor,quadratic" };
+    let methods = parse_methods(methods.as_deref().unwrap_or(default))?;
+    let mut sweep = if quick { isomarch::tradeoff::Sweep::quick(methods) } else { isomarch::tradeoff::Sweep::full(methods) };
+    if !min_steps.is_empty() {
+        if let Some(bad) = min_steps.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+            bail!("--min-steps must be positive, got {bad}");
+        }
+        sweep.min_steps = min_steps;
+    }
+    if !max_steps.is_empty() {
+        if max_steps.contains(&0) {
+            bail!("--max-steps-list must be at least 1");
+        }
+        sweep.max_steps = max_steps;
+    }
+    if let Some(n) = rays {
+        sweep.rays = check_rays(n)?;
+    }
+    sweep.seed = seed;
+    let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    let dir = output.unwrap_or_else(|| PathBuf::from(format!("tradeoff-{stem}")));
+    let gpu = gpu.open()?;
+    let total = sweep.methods.len() * sweep.min_steps.len() * sweep.max_steps.len();
+    let bar = indicatif::ProgressBar::new(total as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("tradeoff [{bar:30}] {pos}/{len} settings ({eta} left)")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    let points = isomarch::tradeoff::run(&gpu.ctx, &scene, &sweep, gpu.timeout, |n| bar.set_position(n as u64))?;
+    bar.finish_and_clear();
+    write_atomic(&dir.join("tradeoff.csv"), isomarch::tradeoff::csv(&points).as_bytes())?;
+    let title = format!("{stem}: time per ray against error, {} rays on {}", sweep.rays, gpu.ctx.info.name);
+    isomarch::tradeoff::plot(&points, &title, &dir.join("tradeoff.png"), &dir.join("tradeoff.svg"))?;
+    eprintln!("{} settings; Pareto front:", points.len());
+    for p in points.iter().filter(|p| p.pareto) {
+        eprintln!(
+            "  {:<18} min step {:<7} max steps {:<6} {} ns/ray, error {:.2e}, miss rate {:.5}",
+            p.method,
+            p.min_step,
+            p.max_steps,
+            p.ns_per_ray.map_or("n/a".into(), |v| format!("{v:.0}")),
+            p.error,
+            p.miss_rate
+        );
+    }
+    eprintln!("wrote {}/tradeoff.csv, .png, .svg", dir.display());
+    finish(&gpu.ctx)
+}
+
+fn bench(args: BenchArgs) -> Result<()> {
+    let methods = parse_methods(&args.methods)?;
+    let rays = check_rays(args.rays)?;
+    // An animated scene is measured as posed at time 0.
+    let scene = args.march.load(&args.scene)?.at_time(0.0);
+    let gpu = args.gpu.open()?;
+    let variants = args.variants.variants(&scene);
+    let report = bench::run(&gpu.ctx, &scene, &methods, &variants, rays, args.seed, gpu.timeout)?;
+    print!("{}", bench::markdown(&report));
+    if let Some(path) = args.json {
+        write_atomic(&path, &serde_json::to_vec_pretty(&report)?)?;
+    }
+    if let Some(path) = args.heatmap_grid {
+        // The grid shows the first variant's settings.
+        let mut scene = scene.clone();
+        scene.marching.quad = variants[0].quad;
+        let mut panels = Vec::new();
+        for &method in &methods {
+            let job = RenderJob::new(scene.clone(), method, args.size, PathBuf::new(), gpu.timeout);
+            let (frame, _) = render_frame(&gpu.ctx, &job)?;
+            panels.push((method.to_string(), frame.steps()));
+        }
+        let grid = output::heatmap_grid(args.size.0, args.size.1, &panels, Some(args.steps_max));
+        write_atomic(&path, &png_bytes(&grid)?)?;
+    }
+    finish(&gpu.ctx)
+}
+
+/// The end of every command that used the GPU: keeps the compiled pipelines
+/// for the next run where the driver allows it (a failure costs only that,
+/// so it is a warning), then, with validation on, fails on any message.
+fn finish(ctx: &Context) -> Result<()> {
+    if let Err(e) = ctx.save_pipeline_cache() {
+        eprintln!("warning: pipeline cache not saved: {e:#}");
+    }
     let messages = ctx.validation_messages();
     if messages.is_empty() {
         return Ok(());
@@ -574,11 +681,13 @@ fn check_validation(ctx: &Context) -> Result<()> {
 #[error("interrupted")]
 struct Interrupted;
 
-/// Keeps compiled pipelines for the next run where the driver allows it; a
-/// failure costs only that, so it is a warning.
-fn save_cache(ctx: &Context) {
-    if let Err(e) = ctx.save_pipeline_cache() {
-        eprintln!("warning: pipeline cache not saved: {e:#}");
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Info => info(),
+        Command::Render(args) => render(args),
+        Command::View(args) => view(args),
+        Command::Tradeoff(args) => tradeoff(args),
+        Command::Bench(args) => bench(args),
     }
 }
 

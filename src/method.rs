@@ -121,6 +121,18 @@ impl FromStr for Method {
     }
 }
 
+/// Command-line values: each method by its name, in `Method::ALL` order, so
+/// that help lists the methods from that one list.
+impl clap::ValueEnum for Method {
+    fn value_variants<'a>() -> &'a [Method] {
+        Method::ALL
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(self.name()))
+    }
+}
+
 /// Parses a comma-separated method list such as `sphere,segment`.
 pub fn parse_list(s: &str) -> Result<Vec<Method>, String> {
     let methods: Vec<Method> = s.split(',').map(str::trim).filter(|p| !p.is_empty()).map(str::parse).collect::<Result<_, _>>()?;
@@ -128,4 +140,19 @@ pub fn parse_list(s: &str) -> Result<Vec<Method>, String> {
         return Err("no method given".into());
     }
     Ok(methods)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Method;
+
+    #[test]
+    fn command_line_values_are_the_method_names() {
+        for &m in Method::ALL {
+            assert_eq!(<Method as clap::ValueEnum>::from_str(m.name(), false), Ok(m));
+            assert_eq!(m.name().parse::<Method>(), Ok(m));
+        }
+        assert_eq!(super::parse_list(" sphere,,segment "), Ok(vec![Method::Sphere, Method::Segment]));
+        assert_eq!(super::parse_list(", ,"), Err("no method given".to_string()));
+    }
 }

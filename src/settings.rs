@@ -79,4 +79,3 @@ impl Default for QuadSettings {
         QuadSettings { extension: true, validity: ValidityScope::Significant }
     }
 }
-pub fn _probe() -> f64 { crate::scene::GAUSSIAN_BOUNDS_FRACTION }

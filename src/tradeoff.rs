@@ -14,7 +14,7 @@ use crate::gpu::Context;
 use crate::layout::FLAG_HIT;
 use crate::method::Method;
 use crate::output::MarchStats;
-use crate::render::Renderer;
+use crate::render::{MarchOptions, Renderer};
 use crate::render::rays::protocol_rays;
 use crate::scene::Scene;
 
@@ -79,7 +79,6 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, sweep: &Sweep, timeout: std::time:
     let reference = reference_crossings(scene, &rays, !transparent, false);
     let size = scene.bounds.diagonal();
     let mut renderer = Renderer::new(ctx, scene)?;
-    renderer.shade = false;
     renderer.timeout = timeout;
     let mut points = Vec::new();
     for &method in &sweep.methods {
@@ -89,7 +88,9 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, sweep: &Sweep, timeout: std::time:
                 s.marching.min_step = min_step;
                 s.marching.max_steps = max_steps;
                 renderer.set_scene(&s)?;
-                let out = renderer.march(method, &rays, |_| {})?;
+                // Unshaded: only hits and counts are measured.
+                let options = MarchOptions { shade: false, ..MarchOptions::for_scene(&s) };
+                let out = renderer.march(method, options, &rays, |_| {})?;
                 let stats = MarchStats::of(&out.results, out.gpu_ns);
                 let (mut errors, mut misses, mut false_hits, mut either) = (Vec::new(), 0usize, 0usize, 0usize);
                 for (r, reference) in out.results.iter().zip(&reference) {

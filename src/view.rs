@@ -28,7 +28,7 @@ use crate::gpu::{Context, ContextOptions, Presented, Presenter};
 use crate::layout::GpuRay;
 use crate::method::Method;
 use crate::output::{self, LEGEND_HEIGHT};
-use crate::render::Renderer;
+use crate::render::{MarchOptions, Renderer};
 use crate::render::offscreen::{march_frame, pixel_stats};
 use crate::render::rays::{PIXEL_TILE, camera_rays};
 use crate::scene::Scene;
@@ -85,11 +85,11 @@ pub fn run(options: ViewOptions) -> Result<ViewSummary> {
     }
     app.gpu = None;
     Ok(ViewSummary {
-        presented: app.presented,
-        full_frames: app.full_frames,
-        seconds: app.started.elapsed().as_secs_f64(),
-        method: app.method,
-        steps_per_ray: app.steps_per_ray,
+        presented: app.schedule.presented,
+        full_frames: app.schedule.full_frames,
+        seconds: app.schedule.started.elapsed().as_secs_f64(),
+        method: app.input.method,
+        steps_per_ray: app.schedule.steps_per_ray,
         ctx: app.ctx.take(),
     })
 }
@@ -140,22 +140,97 @@ struct Gpu {
     window: Window,
 }
 
-struct App {
-    options: ViewOptions,
-    gpu: Option<Gpu>,
-    ctx: Option<Arc<Context>>,
-    error: Option<anyhow::Error>,
+/// What the user has chosen and is doing: the marcher and the display the
+/// keys select, and the mouse.
+struct Input {
     method: Method,
+    /// The scene's transparency shown (T toggles it off and on).
+    transparency: bool,
+    /// The steps heatmap shown instead of the shaded frame (H).
+    heatmap: bool,
+    /// Where the left button drags from; `None` while it is up.
+    drag: Option<(f64, f64)>,
+    cursor: (f64, f64),
+    /// When the mouse last turned or zoomed the view (or pressed to).
+    last_input: Instant,
+    /// Screenshots saved with S, to number their files.
+    screenshots: u32,
+}
+
+impl Input {
+    fn new(options: &ViewOptions, now: Instant) -> Input {
+        Input {
+            method: options.method,
+            transparency: options.scene.transparency.is_some(),
+            heatmap: false,
+            drag: None,
+            cursor: (0.0, 0.0),
+            last_input: now - Duration::from_secs(1),
+            screenshots: 0,
+        }
+    }
+
+    /// Methods the scene can be marched with as shown (the bisection
+    /// baselines find only a first entering crossing: opaque only).
+    fn usable(&self, m: Method) -> bool {
+        !(self.transparency && matches!(m, Method::LinearBisection | Method::Raa))
+    }
+
+    /// The next usable method after the current one, in `Method::ALL` order.
+    fn next_method(&mut self) {
+        let all = Method::ALL;
+        let at = all.iter().position(|&m| m == self.method).unwrap_or(0);
+        self.method = (1..=all.len()).map(|i| all[(at + i) % all.len()]).find(|&m| self.usable(m)).unwrap_or(self.method);
+    }
+
+    /// The mouse is moving the view: dragging, or it did so just now.
+    fn moving(&self) -> bool {
+        self.drag.is_some() || self.last_input.elapsed() < Duration::from_millis(250)
+    }
+}
+
+/// Where the camera is: the scene time it shows, advancing with the wall
+/// clock while playing, and the user's orbit about the scene's camera.
+struct Camera {
     /// Scene time shown, and the wall clock it advances with.
     time: f64,
     playing: bool,
     clock: Instant,
     orbit: Orbit,
-    transparency: bool,
-    heatmap: bool,
-    drag: Option<(f64, f64)>,
-    cursor: (f64, f64),
-    last_input: Instant,
+}
+
+impl Camera {
+    fn new(options: &ViewOptions, now: Instant) -> Camera {
+        Camera { time: options.time, playing: !options.paused, clock: now, orbit: Orbit::default() }
+    }
+
+    /// Moves scene time on by the wall time since the last call, while
+    /// playing.
+    fn advance(&mut self) {
+        if self.playing {
+            let now = Instant::now();
+            self.time += now.duration_since(self.clock).as_secs_f64();
+            self.clock = now;
+        }
+    }
+
+    fn toggle_playing(&mut self) {
+        self.playing = !self.playing;
+        self.clock = Instant::now();
+    }
+
+    /// Pauses, and moves `frames` frames of 1/fps s from the frame nearest
+    /// the current time.
+    fn step(&mut self, frames: f64, fps: f64) {
+        self.playing = false;
+        self.time = ((self.time * fps).round() + frames) / fps;
+    }
+}
+
+/// When and what to render: what the window shows, the full-resolution
+/// frame being refined, the measured cost per ray that sizes each piece of
+/// work, and the frame statistics of the title and the summary.
+struct Schedule {
     /// Something changed since the last frame: render again.
     dirty: bool,
     minimised: bool,
@@ -167,36 +242,20 @@ struct App {
     progressive: Option<Progressive>,
     /// The window shows a preview: march the full frame once at rest.
     wants_full: bool,
+    preview_divisor: u32,
     presented: u64,
     full_frames: u64,
     steps_per_ray: f64,
     frame_ms: f64,
-    preview_divisor: u32,
     fps_window: (Instant, u64),
     fps: f64,
     title_at: Instant,
-    screenshots: u32,
     started: Instant,
 }
 
-impl App {
-    fn new(options: ViewOptions) -> App {
-        let now = Instant::now();
-        App {
-            method: options.method,
-            time: options.time,
-            playing: !options.paused,
-            transparency: options.scene.transparency.is_some(),
-            options,
-            gpu: None,
-            ctx: None,
-            error: None,
-            clock: now,
-            orbit: Orbit::default(),
-            heatmap: false,
-            drag: None,
-            cursor: (0.0, 0.0),
-            last_input: now - Duration::from_secs(1),
+impl Schedule {
+    fn new(now: Instant) -> Schedule {
+        Schedule {
             dirty: true,
             minimised: false,
             ns_per_ray: None,
@@ -204,16 +263,59 @@ impl App {
             shown_steps: Vec::new(),
             progressive: None,
             wants_full: false,
+            preview_divisor: 1,
             presented: 0,
             full_frames: 0,
             steps_per_ray: 0.0,
             frame_ms: 0.0,
-            preview_divisor: 1,
             fps_window: (now, 0),
             fps: 0.0,
             title_at: now,
-            screenshots: 0,
             started: now,
+        }
+    }
+
+    /// The cost per ray is another method's or scene's: measure it again,
+    /// and render again.
+    fn remeasure(&mut self) {
+        self.ns_per_ray = None;
+        self.dirty = true;
+    }
+
+    /// Folds the wall time of a march into the measured cost per ray.
+    fn measured(&mut self, elapsed: Duration, rays: usize) {
+        let ns = elapsed.as_nanos() as f64 / rays.max(1) as f64;
+        self.ns_per_ray = Some(self.ns_per_ray.map_or(ns, |old| 0.5 * (old + ns)));
+    }
+
+    /// Rays that fit `budget` at the measured cost per ray (the first frame
+    /// of a method has no cost yet: start small).
+    fn affordable_rays(&self, budget: Duration) -> f64 {
+        self.ns_per_ray.map_or(4096.0, |ns| budget.as_nanos() as f64 / ns.max(1.0))
+    }
+}
+
+struct App {
+    options: ViewOptions,
+    gpu: Option<Gpu>,
+    ctx: Option<Arc<Context>>,
+    error: Option<anyhow::Error>,
+    input: Input,
+    camera: Camera,
+    schedule: Schedule,
+}
+
+impl App {
+    fn new(options: ViewOptions) -> App {
+        let now = Instant::now();
+        App {
+            input: Input::new(&options, now),
+            camera: Camera::new(&options, now),
+            schedule: Schedule::new(now),
+            options,
+            gpu: None,
+            ctx: None,
+            error: None,
         }
     }
 
@@ -228,11 +330,11 @@ impl App {
 
     /// The scene as it should look now, for an image of `size`.
     fn posed(&self, size: (u32, u32)) -> Scene {
-        let mut s = self.options.scene.at_time(self.time);
-        if !self.transparency {
+        let mut s = self.options.scene.at_time(self.camera.time);
+        if !self.input.transparency {
             s.transparency = None;
         }
-        self.orbit.apply(&mut s);
+        self.camera.orbit.apply(&mut s);
         (s.camera.width, s.camera.height) = size;
         s.recentred_on_camera()
     }
@@ -256,53 +358,39 @@ impl App {
         renderer.timeout = self.options.timeout;
         self.ctx = Some(ctx);
         self.gpu = Some(Gpu { presenter, renderer, window });
-        self.clock = Instant::now();
+        self.camera.clock = Instant::now();
         Ok(())
     }
 
-    /// Methods the scene can be marched with as shown (the bisection
-    /// baselines find only a first entering crossing: opaque only).
-    fn usable(&self, m: Method) -> bool {
-        !(self.transparency && matches!(m, Method::LinearBisection | Method::Raa))
-    }
-
     fn key(&mut self, el: &ActiveEventLoop, key: &Key) -> Result<()> {
-        let fps = self.options.fps;
         match key {
             Key::Named(NamedKey::Escape) => el.exit(),
             Key::Named(NamedKey::Space) => {
-                self.playing = !self.playing;
-                self.clock = Instant::now();
+                self.camera.toggle_playing();
                 // Paused on a preview: draw the frame again, then in full.
-                self.dirty = true;
+                self.schedule.dirty = true;
             }
             Key::Named(NamedKey::ArrowRight) | Key::Named(NamedKey::ArrowLeft) => {
-                self.playing = false;
-                let step = if matches!(key, Key::Named(NamedKey::ArrowRight)) { 1.0 } else { -1.0 };
-                // Onto the frame grid, then one frame on.
-                self.time = ((self.time * fps).round() + step) / fps;
-                self.dirty = true;
+                let frames = if matches!(key, Key::Named(NamedKey::ArrowRight)) { 1.0 } else { -1.0 };
+                self.camera.step(frames, self.options.fps);
+                self.schedule.dirty = true;
             }
             Key::Character(c) => match c.to_lowercase().as_str() {
                 "m" => {
-                    let all = Method::ALL;
-                    let at = all.iter().position(|&m| m == self.method).unwrap_or(0);
-                    self.method = (1..=all.len()).map(|i| all[(at + i) % all.len()]).find(|&m| self.usable(m)).unwrap_or(self.method);
-                    self.ns_per_ray = None;
-                    self.dirty = true;
+                    self.input.next_method();
+                    self.schedule.remeasure();
                 }
                 "h" => {
-                    self.heatmap = !self.heatmap;
+                    self.input.heatmap = !self.input.heatmap;
                     self.show()?;
                 }
                 "t" => {
                     if self.options.scene.transparency.is_some() {
-                        self.transparency = !self.transparency;
-                        if !self.usable(self.method) {
-                            self.method = Method::QuadraticTaylor;
+                        self.input.transparency = !self.input.transparency;
+                        if !self.input.usable(self.input.method) {
+                            self.input.method = Method::QuadraticTaylor;
                         }
-                        self.ns_per_ray = None;
-                        self.dirty = true;
+                        self.schedule.remeasure();
                     }
                 }
                 "s" => self.save_screenshot(None)?,
@@ -317,7 +405,7 @@ impl App {
     fn save_screenshot(&mut self, path: Option<PathBuf>) -> Result<()> {
         let Some(gpu) = &self.gpu else { return Ok(()) };
         let (w, h) = gpu.presenter.extent();
-        if self.shown_rgb.len() != (w * h * 3) as usize {
+        if self.schedule.shown_rgb.len() != (w * h * 3) as usize {
             // Nothing whole to save (the window changed size just now).
             return match path {
                 Some(p) => Err(anyhow!("no complete frame to save to {} (the window was resized or never drawn)", p.display())),
@@ -325,8 +413,9 @@ impl App {
             };
         }
         let path = path.unwrap_or_else(|| {
-            self.screenshots += 1;
-            self.options.screenshot_dir.join(format!("{}-{}-{:.3}s-{}.png", self.scene_name(), self.method, self.time, self.screenshots))
+            self.input.screenshots += 1;
+            let name = format!("{}-{}-{:.3}s-{}.png", self.scene_name(), self.input.method, self.camera.time, self.input.screenshots);
+            self.options.screenshot_dir.join(name)
         });
         let img = image::RgbImage::from_raw(w, h, self.displayed()).ok_or_else(|| anyhow!("screenshot size"))?;
         output::write_atomic(&path, &output::png_bytes(&img)?)?;
@@ -339,11 +428,12 @@ impl App {
     fn displayed(&self) -> Vec<u8> {
         let Some(gpu) = &self.gpu else { return Vec::new() };
         let (w, h) = gpu.presenter.extent();
-        if !self.heatmap || h <= LEGEND_HEIGHT + 8 || self.shown_steps.len() != (w * h) as usize {
-            return self.shown_rgb.clone();
+        let shown = &self.schedule;
+        if !self.input.heatmap || h <= LEGEND_HEIGHT + 8 || shown.shown_steps.len() != (w * h) as usize {
+            return shown.shown_rgb.clone();
         }
         let rows = h - LEGEND_HEIGHT;
-        output::heatmap_image(w, rows, &self.shown_steps[..(w * rows) as usize], None).into_raw()
+        output::heatmap_image(w, rows, &shown.shown_steps[..(w * rows) as usize], None).into_raw()
     }
 
     fn show(&mut self) -> Result<()> {
@@ -354,8 +444,8 @@ impl App {
         }
         let shown = gpu.presenter.present(&pixels)?;
         if shown != Presented::OutOfDate {
-            self.presented += 1;
-            self.fps_window.1 += 1;
+            self.schedule.presented += 1;
+            self.schedule.fps_window.1 += 1;
         }
         if shown != Presented::Yes {
             // Rebuild the swapchain for the window as it is now.
@@ -366,23 +456,24 @@ impl App {
     }
 
     fn resize(&mut self, size: PhysicalSize<u32>) -> Result<()> {
-        self.minimised = size.width == 0 || size.height == 0;
-        if self.minimised {
+        let schedule = &mut self.schedule;
+        schedule.minimised = size.width == 0 || size.height == 0;
+        if schedule.minimised {
             return Ok(());
         }
         let Some(gpu) = &mut self.gpu else { return Ok(()) };
         let before = gpu.presenter.extent();
         if !gpu.presenter.resize((size.width, size.height))? {
-            self.minimised = true;
+            schedule.minimised = true;
             return Ok(());
         }
-        if gpu.presenter.extent() == before && !self.shown_rgb.is_empty() {
+        if gpu.presenter.extent() == before && !schedule.shown_rgb.is_empty() {
             return Ok(());
         }
-        self.shown_rgb.clear();
-        self.shown_steps.clear();
-        self.progressive = None;
-        self.dirty = true;
+        schedule.shown_rgb.clear();
+        schedule.shown_steps.clear();
+        schedule.progressive = None;
+        schedule.dirty = true;
         Ok(())
     }
 
@@ -390,52 +481,46 @@ impl App {
     fn march(&mut self, scene: &Scene, rays: &[GpuRay]) -> Result<crate::render::MarchOutput> {
         let gpu = self.gpu.as_mut().ok_or_else(|| anyhow!("no window"))?;
         gpu.renderer.set_scene(scene)?;
-        gpu.renderer.transparent = scene.transparency.is_some();
         let t = Instant::now();
-        let out = march_frame(&mut gpu.renderer, self.method, rays)?;
-        let ns = t.elapsed().as_nanos() as f64 / rays.len().max(1) as f64;
-        self.ns_per_ray = Some(self.ns_per_ray.map_or(ns, |old| 0.5 * (old + ns)));
+        // Transparent as shown: T takes the posed scene's transparency away.
+        let out = march_frame(&mut gpu.renderer, self.input.method, MarchOptions::for_scene(scene), rays)?;
+        self.schedule.measured(t.elapsed(), rays.len());
         Ok(out)
-    }
-
-    /// Rays that fit the preview budget at the measured cost per ray (the
-    /// first frame of a method has no cost yet: start small).
-    fn affordable_rays(&self) -> f64 {
-        let budget = self.options.preview.as_nanos() as f64;
-        self.ns_per_ray.map_or(4096.0, |ns| budget / ns.max(1.0))
     }
 
     /// Renders at a resolution that fits the preview budget and shows it
     /// scaled up to the window; full resolution when that fits.
     fn preview_frame(&mut self, size: (u32, u32)) -> Result<()> {
         let full_rays = f64::from(size.0) * f64::from(size.1);
-        let divisor = (full_rays / self.affordable_rays().max(64.0)).sqrt().ceil().clamp(1.0, 64.0) as u32;
-        self.preview_divisor = divisor;
+        let affordable = self.schedule.affordable_rays(self.options.preview);
+        let divisor = (full_rays / affordable.max(64.0)).sqrt().ceil().clamp(1.0, 64.0) as u32;
+        self.schedule.preview_divisor = divisor;
         let small = (size.0.div_ceil(divisor).max(1), size.1.div_ceil(divisor).max(1));
         let scene = self.posed(small);
         let (rays, pixels) = camera_rays(&scene.camera, small.0, small.1, &scene.bounds);
         let started = Instant::now();
         let out = self.march(&scene, &rays)?;
         let frame = output::Frame::from_results(small.0, small.1, &out.results, &pixels);
-        self.frame_ms = started.elapsed().as_secs_f64() * 1e3;
-        self.steps_per_ray = pixel_stats(&out, &pixels).steps_per_ray;
+        let schedule = &mut self.schedule;
+        schedule.frame_ms = started.elapsed().as_secs_f64() * 1e3;
+        schedule.steps_per_ray = pixel_stats(&out, &pixels).steps_per_ray;
         // Nearest-neighbour scale-up to the window.
         let (w, h) = size;
         let shaded = frame.shaded();
         let steps = frame.steps();
-        self.shown_rgb = vec![0; (w * h * 3) as usize];
-        self.shown_steps = vec![0; (w * h) as usize];
+        schedule.shown_rgb = vec![0; (w * h * 3) as usize];
+        schedule.shown_steps = vec![0; (w * h) as usize];
         for y in 0..h {
             let sy = (y * small.1 / h).min(small.1 - 1);
             for x in 0..w {
                 let sx = (x * small.0 / w).min(small.0 - 1);
                 let i = (y * w + x) as usize;
-                self.shown_rgb[3 * i..3 * i + 3].copy_from_slice(&shaded.get_pixel(sx, sy).0);
-                self.shown_steps[i] = steps[(sy * small.0 + sx) as usize];
+                schedule.shown_rgb[3 * i..3 * i + 3].copy_from_slice(&shaded.get_pixel(sx, sy).0);
+                schedule.shown_steps[i] = steps[(sy * small.0 + sx) as usize];
             }
         }
         if divisor == 1 {
-            self.full_frames += 1;
+            schedule.full_frames += 1;
         }
         self.show()
     }
@@ -443,71 +528,69 @@ impl App {
     /// Marches the next tiles of the full-resolution frame (as many as fit
     /// the budget) and shows them over the preview.
     fn progressive_step(&mut self) -> Result<()> {
-        let Some(mut job) = self.progressive.take() else { return Ok(()) };
+        let Some(mut job) = self.schedule.progressive.take() else { return Ok(()) };
         let tile = (PIXEL_TILE * PIXEL_TILE) as usize;
-        let count = (self.affordable_rays() as usize / tile).max(1) * tile;
+        let count = (self.schedule.affordable_rays(self.options.preview) as usize / tile).max(1) * tile;
         let end = (job.next + count).min(job.rays.len());
         let results = self.march(&job.scene, &job.rays[job.next..end])?.results;
+        let schedule = &mut self.schedule;
         for (r, p) in results.iter().zip(&job.pixels[job.next..end]) {
             let Some(p) = *p else { continue };
             let i = p as usize;
             let c = r.color;
-            self.shown_rgb[3 * i..3 * i + 3].copy_from_slice(&[output::srgb(c[0]), output::srgb(c[1]), output::srgb(c[2])]);
-            self.shown_steps[i] = r.counts[0];
+            schedule.shown_rgb[3 * i..3 * i + 3].copy_from_slice(&[output::srgb(c[0]), output::srgb(c[1]), output::srgb(c[2])]);
+            schedule.shown_steps[i] = r.counts[0];
             job.steps += u64::from(r.counts[0]);
             job.rays_done += 1;
         }
         job.next = end;
         if job.next < job.rays.len() {
-            self.progressive = Some(job);
+            schedule.progressive = Some(job);
         } else {
-            self.full_frames += 1;
-            self.preview_divisor = 1;
-            self.frame_ms = job.started.elapsed().as_secs_f64() * 1e3;
-            self.steps_per_ray = job.steps as f64 / job.rays_done.max(1) as f64;
+            schedule.full_frames += 1;
+            schedule.preview_divisor = 1;
+            schedule.frame_ms = job.started.elapsed().as_secs_f64() * 1e3;
+            schedule.steps_per_ray = job.steps as f64 / job.rays_done.max(1) as f64;
         }
         self.show()
     }
 
     /// One turn of the render loop: what to draw now, if anything.
     fn tick(&mut self, el: &ActiveEventLoop) -> Result<()> {
-        if self.gpu.is_none() || self.minimised {
+        if self.gpu.is_none() || self.schedule.minimised {
             el.set_control_flow(ControlFlow::Wait);
             return Ok(());
         }
         if let Some(n) = self.options.exit_after {
-            if self.presented >= n {
+            if self.schedule.presented >= n {
                 el.exit();
                 return Ok(());
             }
         }
-        if self.playing {
-            let now = Instant::now();
-            self.time += now.duration_since(self.clock).as_secs_f64();
-            self.clock = now;
-        }
+        self.camera.advance();
         let size = self.gpu.as_ref().map(|g| g.presenter.extent()).unwrap_or((1, 1));
-        let moving = (self.playing && self.animated()) || self.drag.is_some() || self.last_input.elapsed() < Duration::from_millis(250);
+        let moving = (self.camera.playing && self.animated()) || self.input.moving();
         // Scripted runs keep presenting, even a still view.
         let scripted = self.options.exit_after.is_some();
-        if moving || self.dirty || self.shown_rgb.is_empty() {
-            self.dirty = false;
-            self.progressive = None;
+        if moving || self.schedule.dirty || self.schedule.shown_rgb.is_empty() {
+            self.schedule.dirty = false;
+            self.schedule.progressive = None;
             self.preview_frame(size)?;
-            self.wants_full = self.preview_divisor > 1;
-        } else if self.progressive.is_some() {
+            self.schedule.wants_full = self.schedule.preview_divisor > 1;
+        } else if self.schedule.progressive.is_some() {
             self.progressive_step()?;
-        } else if self.wants_full {
+        } else if self.schedule.wants_full {
             // At rest on a preview: march the full frame, tile by tile.
-            self.wants_full = false;
+            self.schedule.wants_full = false;
             let scene = self.posed(size);
             let (rays, pixels) = camera_rays(&scene.camera, size.0, size.1, &scene.bounds);
-            self.progressive = Some(Progressive { scene, rays, pixels, next: 0, steps: 0, rays_done: 0, started: Instant::now() });
+            self.schedule.progressive = Some(Progressive { scene, rays, pixels, next: 0, steps: 0, rays_done: 0, started: Instant::now() });
             self.progressive_step()?;
         } else if scripted {
             self.show()?;
         }
-        let busy = moving || self.dirty || self.wants_full || self.progressive.is_some() || scripted;
+        let schedule = &self.schedule;
+        let busy = moving || schedule.dirty || schedule.wants_full || schedule.progressive.is_some() || scripted;
         // Going idle: the title must show the final state.
         self.update_title(!busy);
         el.set_control_flow(if busy { ControlFlow::Poll } else { ControlFlow::Wait });
@@ -516,32 +599,34 @@ impl App {
 
     fn update_title(&mut self, now: bool) {
         let Some(gpu) = &self.gpu else { return };
-        let since = self.fps_window.0.elapsed().as_secs_f64();
+        let schedule = &mut self.schedule;
+        let since = schedule.fps_window.0.elapsed().as_secs_f64();
         if since >= 1.0 {
-            self.fps = self.fps_window.1 as f64 / since;
-            self.fps_window = (Instant::now(), 0);
+            schedule.fps = schedule.fps_window.1 as f64 / since;
+            schedule.fps_window = (Instant::now(), 0);
         }
-        if !now && self.title_at.elapsed() < Duration::from_millis(250) {
+        if !now && schedule.title_at.elapsed() < Duration::from_millis(250) {
             return;
         }
-        self.title_at = Instant::now();
+        schedule.title_at = Instant::now();
         let name = self.scene_name();
+        let (schedule, input, camera) = (&self.schedule, &self.input, &self.camera);
         let mut title = format!(
             "isomarch: {name} | {} | {:.1} ms/frame | {:.1} FPS | {:.2} steps/ray | t = {:.2} s",
-            self.method, self.frame_ms, self.fps, self.steps_per_ray, self.time
+            input.method, schedule.frame_ms, schedule.fps, schedule.steps_per_ray, camera.time
         );
-        if let Some(job) = &self.progressive {
+        if let Some(job) = &schedule.progressive {
             title.push_str(&format!(" | refining {:.0}%", 100.0 * job.next as f64 / job.rays.len().max(1) as f64));
-        } else if self.preview_divisor > 1 {
-            title.push_str(&format!(" | preview 1/{}", self.preview_divisor));
+        } else if schedule.preview_divisor > 1 {
+            title.push_str(&format!(" | preview 1/{}", schedule.preview_divisor));
         }
-        if !self.playing {
+        if !camera.playing {
             title.push_str(" | paused");
         }
-        if self.heatmap {
+        if input.heatmap {
             title.push_str(" | steps");
         }
-        if self.options.scene.transparency.is_some() && !self.transparency {
+        if self.options.scene.transparency.is_some() && !input.transparency {
             title.push_str(" | opaque");
         }
         gpu.window.set_title(&title);
@@ -552,8 +637,8 @@ impl App {
             WindowEvent::CloseRequested => el.exit(),
             WindowEvent::Resized(size) => self.resize(size)?,
             WindowEvent::Occluded(hidden) => {
-                self.minimised = hidden;
-                self.dirty = true;
+                self.schedule.minimised = hidden;
+                self.schedule.dirty = true;
             }
             // Held keys repeat only where repeating makes sense (stepping);
             // keys found held when the window gains focus are not presses.
@@ -565,19 +650,21 @@ impl App {
                 self.key(el, &event.logical_key)?;
             }
             WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
-                self.drag = (state == ElementState::Pressed).then_some(self.cursor);
-                self.last_input = Instant::now();
+                self.input.drag = (state == ElementState::Pressed).then_some(self.input.cursor);
+                self.input.last_input = Instant::now();
             }
             WindowEvent::CursorMoved { position, .. } => {
-                self.cursor = (position.x, position.y);
-                if let (Some((x0, y0)), Some(gpu)) = (self.drag, &self.gpu) {
+                let input = &mut self.input;
+                input.cursor = (position.x, position.y);
+                if let (Some((x0, y0)), Some(gpu)) = (input.drag, &self.gpu) {
                     let h = f64::from(gpu.presenter.extent().1.max(1));
                     // A drag across the window's height turns by 180 degrees.
-                    self.orbit.yaw -= (position.x - x0) / h * std::f64::consts::PI;
-                    self.orbit.pitch = (self.orbit.pitch + (position.y - y0) / h * std::f64::consts::PI).clamp(-3.0, 3.0);
-                    self.drag = Some(self.cursor);
-                    self.last_input = Instant::now();
-                    self.dirty = true;
+                    let orbit = &mut self.camera.orbit;
+                    orbit.yaw -= (position.x - x0) / h * std::f64::consts::PI;
+                    orbit.pitch = (orbit.pitch + (position.y - y0) / h * std::f64::consts::PI).clamp(-3.0, 3.0);
+                    input.drag = Some(input.cursor);
+                    input.last_input = Instant::now();
+                    self.schedule.dirty = true;
                 }
             }
             WindowEvent::MouseWheel { delta, .. } => {
@@ -585,9 +672,9 @@ impl App {
                     MouseScrollDelta::LineDelta(_, y) => f64::from(y),
                     MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
                 };
-                self.orbit.zoom = (self.orbit.zoom - 0.1 * lines).clamp(-5.0, 5.0);
-                self.last_input = Instant::now();
-                self.dirty = true;
+                self.camera.orbit.zoom = (self.camera.orbit.zoom - 0.1 * lines).clamp(-5.0, 5.0);
+                self.input.last_input = Instant::now();
+                self.schedule.dirty = true;
             }
             _ => {}
         }
@@ -601,7 +688,6 @@ impl App {
         el.exit();
     }
 }
-
 
 impl ApplicationHandler for App {
     fn resumed(&mut self, el: &ActiveEventLoop) {

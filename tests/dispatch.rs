@@ -11,7 +11,7 @@ use glam::DVec3;
 use isomarch::field::Field;
 use isomarch::layout::GpuRay;
 use isomarch::render::rays::{Ray, protocol_rays};
-use isomarch::render::{Renderer, gpu_primitives};
+use isomarch::render::{MarchOptions, Renderer, gpu_primitives};
 use isomarch::Method;
 
 /// A ray down the z axis through both blobs, on t in [3, 7].
@@ -29,7 +29,7 @@ fn an_unknown_primitive_kind_poisons_every_evaluation_with_nan() {
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
     let queries = [THROUGH];
     for &method in Method::ALL {
-        let b = renderer.probe_bounds(method, &queries).unwrap()[0];
+        let b = renderer.probe_bounds(method, MarchOptions::for_scene(&s), &queries).unwrap()[0];
         assert!(b.lo[0].is_finite() && b.hi.iter().all(|x| x.is_finite()), "{method}: known kinds give {b:?}");
     }
     let mut prims = gpu_primitives(&s);
@@ -37,7 +37,7 @@ fn an_unknown_primitive_kind_poisons_every_evaluation_with_nan() {
     prims[1].ids[0] = 7;
     renderer.upload_raw_primitives(&prims).unwrap();
     for &method in Method::ALL {
-        let b = renderer.probe_bounds(method, &queries).unwrap()[0];
+        let b = renderer.probe_bounds(method, MarchOptions::for_scene(&s), &queries).unwrap()[0];
         assert!(b.lo[0].is_nan(), "{method}: an unknown kind gave the value {b:?}, not NaN");
         match method {
             Method::Sphere => assert!(b.hi[..3].iter().all(|x| x.is_nan()), "{method}: gradient {b:?}"),
@@ -68,8 +68,8 @@ fn gpu_values_gradients_and_segment_slopes_equal_the_f64_mirror() {
             .collect();
         assert!(queries.len() >= 200, "seed {seed}: {} rays meet the bounds", queries.len());
         let mut renderer = Renderer::new(&ctx, &s).unwrap();
-        let sphere = renderer.probe_bounds(Method::Sphere, &queries).unwrap();
-        let segment = renderer.probe_bounds(Method::Segment, &queries).unwrap();
+        let sphere = renderer.probe_bounds(Method::Sphere, MarchOptions::for_scene(&s), &queries).unwrap();
+        let segment = renderer.probe_bounds(Method::Segment, MarchOptions::for_scene(&s), &queries).unwrap();
         let (mut inside, mut sloped) = (0, 0);
         for ((q, v), l) in queries.iter().zip(&sphere).zip(&segment) {
             let r = Ray::from_gpu(q);

@@ -17,7 +17,7 @@ use common::*;
 use glam::DVec3;
 use isomarch::bench::{accuracy, reference_hits};
 use isomarch::layout::{FLAG_HIT, FLAG_OUT_OF_STEPS, GpuRay, GpuResult};
-use isomarch::render::Renderer;
+use isomarch::render::{MarchOptions, Renderer};
 use isomarch::render::rays::protocol_rays;
 use isomarch::scene::{Kernel, Primitive, Scene};
 use isomarch::Method;
@@ -55,9 +55,9 @@ fn check_methods(
 ) {
     let reference = reference_hits(s, rays, false);
     let mut renderer = Renderer::new(ctx, s).unwrap();
-    renderer.shade = false;
+    let options = MarchOptions { shade: false, ..MarchOptions::for_scene(s) };
     for &method in methods {
-        let out = renderer.march(method, rays, |_| {}).unwrap();
+        let out = renderer.march(method, options, rays, |_| {}).unwrap();
         assert_finite(&out.results, &format!("{what} {method}"));
         let acc = accuracy(&out.results, &reference, late, tol);
         let allowed = allowed(method);
@@ -128,7 +128,7 @@ fn grazing_rays_and_rays_starting_inside() {
     }
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
     for &method in METHODS {
-        let out = renderer.march(method, &rays, |_| {}).unwrap().results;
+        let out = renderer.march(method, MarchOptions::for_scene(&s), &rays, |_| {}).unwrap().results;
         assert_finite(&out, &format!("grazing {method}"));
         for r in &out {
             assert_eq!(r.counts[3] & FLAG_OUT_OF_STEPS, 0, "{method}: a grazing ray ran out of steps");
@@ -190,9 +190,9 @@ fn minimum_steps_and_budgets_at_their_limits() {
         s.marching.min_step = min_step;
         s.marching.max_steps = max_steps;
         let mut renderer = Renderer::new(&ctx, &s).unwrap();
-        renderer.shade = false;
+        let options = MarchOptions { shade: false, ..MarchOptions::for_scene(&s) };
         for &method in METHODS {
-            let out = renderer.march(method, &rays, |_| {}).unwrap().results;
+            let out = renderer.march(method, options, &rays, |_| {}).unwrap().results;
             let what = format!("min step {min_step}, {max_steps} steps, {method}");
             assert_finite(&out, &what);
             for r in &out {
@@ -308,7 +308,7 @@ fn scenes_far_from_the_origin_keep_their_precision() {
             // 0.008 at 1e5), the same rays are far off.
             let (world_rays, _) = camera_rays(&far.camera, size.0, size.1, &far.bounds);
             let mut renderer = Renderer::new(&ctx, &far).unwrap();
-            let out = renderer.march(Method::Segment, &world_rays, |_| {}).unwrap();
+            let out = renderer.march(Method::Segment, MarchOptions::for_scene(&far), &world_rays, |_| {}).unwrap();
             let frame = isomarch::output::Frame::from_results(size.0, size.1, &out.results, &pixels);
             let (worst, disagree) = image_error(&frame, &pixels, &reference);
             eprintln!("far scene {seed} at {offset}: world coordinates, segment worst {worst:.2e}, {disagree} pixels disagree");

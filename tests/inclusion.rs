@@ -13,7 +13,7 @@ use isomarch::field::fold::field_bound;
 use isomarch::field::Field;
 use isomarch::field::quad::{QuadSettings, ValidityScope};
 use isomarch::layout::GpuRay;
-use isomarch::render::Renderer;
+use isomarch::render::{MarchOptions, Renderer};
 use isomarch::render::rays::{Ray, protocol_rays};
 use isomarch::scene::{Aabb, Primitive, Scene};
 use isomarch::Method;
@@ -116,8 +116,8 @@ fn scale(scene: &Scene) -> f64 {
     Field::new(scene).groups.iter().map(|g| g.iter().map(|p| p.kernel().weight).sum::<f64>()).fold(0.0, f64::max)
 }
 
-fn gpu_bounds(r: &mut Renderer, method: Method, queries: &[GpuRay]) -> Vec<Bound> {
-    r.probe_bounds(method, queries)
+fn gpu_bounds(r: &mut Renderer, method: Method, options: MarchOptions, queries: &[GpuRay]) -> Vec<Bound> {
+    r.probe_bounds(method, options, queries)
         .unwrap()
         .iter()
         .map(|g| Bound {
@@ -181,8 +181,8 @@ fn inclusion_bounds_are_forward_and_contain_the_field_on_gpu_and_f64() {
             assert!(exact.worst_forward < 1e-12, "{name} {method} {quad:?} f64: forward error {:e}", exact.worst_forward);
             // Dense samples of an exact bound may touch it; f64 rounding only.
             assert!(exact.worst_outside < 1e-9, "{name} {method} {quad:?} f64: a sample lies {:e} outside", exact.worst_outside);
-            renderer.quad = quad;
-            let gpu = check(&field, method, &queries, &gpu_bounds(&mut renderer, method, &queries), sc);
+            let options = MarchOptions { quad, ..MarchOptions::for_scene(&s) };
+            let gpu = check(&field, method, &queries, &gpu_bounds(&mut renderer, method, options, &queries), sc);
             // f32: a few ulps of the field's scale, amplified along τ.
             assert!(gpu.worst_forward < 2e-6, "{name} {method} {quad:?} GPU: forward error {:e}", gpu.worst_forward);
             assert!(gpu.worst_outside < 2e-5, "{name} {method} {quad:?} GPU: a sample lies {:e} outside", gpu.worst_outside);
@@ -201,8 +201,7 @@ fn gpu_bounds_equal_the_f64_mirror() {
         let mut renderer = Renderer::new(&ctx, &s).unwrap();
         let sc = scale(&s);
         for (method, quad) in INCLUSION {
-            renderer.quad = quad;
-            let g = gpu_bounds(&mut renderer, method, &queries);
+            let g = gpu_bounds(&mut renderer, method, MarchOptions { quad, ..MarchOptions::for_scene(&s) }, &queries);
             let e = f64_bounds(&field, method, quad, &queries);
             for ((q, g), e) in queries.iter().zip(&g).zip(&e) {
                 let len = f64::from(q.d[3] - q.o[3]).max(1e-3);
@@ -308,8 +307,8 @@ fn degenerate_queries_give_finite_bounds_and_marches_end() {
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
     let field = Field::new(&s);
     for &(method, quad) in &INCLUSION {
-        renderer.quad = quad;
-        let g = gpu_bounds(&mut renderer, method, &queries);
+        let options = MarchOptions { quad, ..MarchOptions::for_scene(&s) };
+        let g = gpu_bounds(&mut renderer, method, options, &queries);
         let e = f64_bounds(&field, method, quad, &queries);
         for (b, q) in g.iter().chain(&e).zip(queries.iter().cycle()) {
             for x in [b.v, b.a_lo, b.b_lo, b.a_hi, b.b_hi] {
@@ -318,7 +317,7 @@ fn degenerate_queries_give_finite_bounds_and_marches_end() {
         }
     }
     for &method in Method::ALL {
-        let out = renderer.march(method, &queries, |_| {}).unwrap();
+        let out = renderer.march(method, MarchOptions { quad: DEFAULT, ..MarchOptions::for_scene(&s) }, &queries, |_| {}).unwrap();
         for (res, q) in out.results.iter().zip(&queries) {
             assert!(res.hit.iter().all(|x| x.is_finite()), "{method}: NaN result {res:?} for {q:?}");
             assert_eq!(res.counts[3] & isomarch::layout::FLAG_OUT_OF_STEPS, 0, "{method}: ran out of steps on {q:?}");
@@ -340,7 +339,7 @@ fn raa_ranges_contain_the_field_on_gpu_and_f64() {
         let queries = cases(&s, 13, 300);
         let mut renderer = Renderer::new(&ctx, &s).unwrap();
         let sc = scale(&s);
-        let gpu = renderer.probe_bounds(Method::Raa, &queries).unwrap();
+        let gpu = renderer.probe_bounds(Method::Raa, MarchOptions::for_scene(&s), &queries).unwrap();
         for (q, g) in queries.iter().zip(&gpu) {
             let r = Ray::from_gpu(q);
             let (lo, hi) = isomarch::field::fold::field_raa(&field, r.o, r.d, r.t0, r.t1);

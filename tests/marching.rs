@@ -8,7 +8,7 @@ use isomarch::bench::{accuracy, accuracy_all, reference_crossings, reference_hit
 use isomarch::field::quad::{QuadSettings, ValidityScope};
 use isomarch::layout::{FLAG_HIT, GpuRay, GpuResult};
 use isomarch::output::MarchStats;
-use isomarch::render::Renderer;
+use isomarch::render::{MarchOptions, Renderer};
 use isomarch::render::rays::{Ray, camera_rays, protocol_rays};
 use isomarch::scene::Scene;
 use isomarch::Method;
@@ -17,7 +17,7 @@ use isomarch::Method;
 fn march_camera(ctx: &std::sync::Arc<isomarch::gpu::Context>, scene: &Scene, method: Method) -> (Vec<Ray>, Vec<GpuResult>) {
     let (rays, pixels) = camera_rays(&scene.camera, 64, 64, &scene.bounds);
     let mut r = Renderer::new(ctx, scene).unwrap();
-    let out = r.march(method, &rays, |_| {}).unwrap();
+    let out = r.march(method, MarchOptions::for_scene(scene), &rays, |_| {}).unwrap();
     rays.iter()
         .zip(out.results)
         .zip(pixels)
@@ -94,7 +94,6 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
             let ref_hits = reference.iter().filter(|r| r.is_some()).count();
             assert!(ref_hits > rays_per_scene / 10, "seed {seed}: only {ref_hits} reference hits; the scene is too sparse to test");
             let mut renderer = Renderer::new(&ctx, &s).unwrap();
-            renderer.shade = false;
             let field = isomarch::field::Field::new(&s);
             let settings = isomarch::field::march::MarchSettings {
                 min_step: s.marching.min_step,
@@ -115,7 +114,7 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
             ]);
             for (method, quad) in variants {
                 let method_label = format!("{method} ({quad:?})");
-                renderer.quad = quad;
+                let options = MarchOptions { shade: false, quad, ..MarchOptions::for_scene(&s) };
                 // The f64 mirror of the marcher, on the first rays of the set.
                 let settings = isomarch::field::march::MarchSettings { growth: method.default_growth(), quad, ..settings };
                 let mirror_tol = 2.0 * s.refine_tolerance();
@@ -135,7 +134,7 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
                         report.push(format!("seed {seed} max={max_of_groups} {method_label} f64 mirror: hit {:?}, reference {reference:?}", m.hit));
                     }
                 }
-                let out = renderer.march(method, &rays, |_| {}).unwrap();
+                let out = renderer.march(method, options, &rays, |_| {}).unwrap();
                 // A hit may land up to the refinement tolerance past the
                 // root, plus f32 rounding of t; never before it.
                 let tol = 2.0 * s.refine_tolerance() + 1e-5;
@@ -166,7 +165,7 @@ fn segment_tracing_takes_fewer_steps_than_sphere_tracing_on_fig10() {
     let s = Scene::load(&repo_root().join("scenes/fig10.ron")).unwrap();
     let rays = protocol_rays(&s.bounds, 4096, 7);
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
-    let steps = |r: &mut Renderer, m| MarchStats::of(&r.march(m, &rays, |_| {}).unwrap().results, None).steps_per_ray;
+    let steps = |r: &mut Renderer, m| MarchStats::of(&r.march(m, MarchOptions::for_scene(&s), &rays, |_| {}).unwrap().results, None).steps_per_ray;
     let (sphere, segment) = (steps(&mut renderer, Method::Sphere), steps(&mut renderer, Method::Segment));
     assert!(segment < 0.8 * sphere, "segment {segment} steps/ray against sphere {sphere}");
     assert_no_validation(&ctx);
@@ -192,7 +191,7 @@ fn transparent_marching_finds_every_crossing_on_gpu_and_f64() {
             let field = isomarch::field::Field::new(&s);
             let tol = 2.0 * s.refine_tolerance() + 1e-5;
             for &method in Method::ALL.iter().filter(|m| !matches!(m, Method::LinearBisection | Method::Raa)) {
-                let out = renderer.march(method, &rays, |_| {}).unwrap();
+                let out = renderer.march(method, MarchOptions::for_scene(&s), &rays, |_| {}).unwrap();
                 let stats = MarchStats::of(&out.results, None);
                 assert_eq!(stats.out_of_steps_rate, 0.0, "seed {seed} {method}: rays ran out of steps");
                 let acc = accuracy_all(&out.crossings, &reference, tol, tol);
@@ -241,7 +240,7 @@ fn bisection_methods_refuse_transparent_marching() {
     let rays = protocol_rays(&s.bounds, 16, 1);
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
     for method in [Method::Raa, Method::LinearBisection] {
-        let err = renderer.march(method, &rays, |_| {}).err().expect("refused");
+        let err = renderer.march(method, MarchOptions::for_scene(&s), &rays, |_| {}).err().expect("refused");
         assert!(err.to_string().contains("opaque"), "{err}");
     }
 }
@@ -255,12 +254,10 @@ fn generic_pipelines_give_the_specialised_results() {
         let s = Scene::load(&repo_root().join("scenes").join(name)).unwrap();
         let rays = protocol_rays(&s.bounds, 2048, 3);
         let mut renderer = Renderer::new(&ctx, &s).unwrap();
-        renderer.shade = false;
+        let options = MarchOptions { shade: false, ..MarchOptions::for_scene(&s) };
         for method in [Method::Segment, Method::QuadraticTaylor, Method::Quadratic] {
-            renderer.generic = false;
-            let specialised = renderer.march(method, &rays, |_| {}).unwrap().results;
-            renderer.generic = true;
-            let generic = renderer.march(method, &rays, |_| {}).unwrap().results;
+            let specialised = renderer.march(method, MarchOptions { generic: false, ..options }, &rays, |_| {}).unwrap().results;
+            let generic = renderer.march(method, MarchOptions { generic: true, ..options }, &rays, |_| {}).unwrap().results;
             for (a, b) in specialised.iter().zip(&generic) {
                 assert_eq!(a.counts, b.counts, "{name} {method}: steps, evaluations or flags differ");
                 assert_eq!(a.hit[3], b.hit[3], "{name} {method}: hit distance differs");
@@ -284,14 +281,13 @@ fn refraction_through_a_blob_sphere_follows_snell_and_reflects_totally_inside() 
     let rho = r_support * (1.0 - f64::cbrt(iso)).sqrt();
     let s = scene(vec![vec![compact(DVec3::ZERO, r_support)]], iso, Method::QuadraticTaylor, 1e-4);
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
-    renderer.shade = false;
+    let options = MarchOptions { shade: false, ..MarchOptions::for_scene(&s) };
     let gpu_ray = |o: DVec3, d: DVec3| {
         let (t0, t1) = s.bounds.clip_ray(o, d).unwrap();
         GpuRay { o: [o.x as f32, o.y as f32, o.z as f32, t0 as f32], d: [d.x as f32, d.y as f32, d.z as f32, t1 as f32] }
     };
     let hit = |r: &mut Renderer, ray: GpuRay, secondary: bool| {
-        r.secondary = secondary;
-        let res = r.march(Method::QuadraticTaylor, &[ray], |_| {}).unwrap().results[0];
+        let res = r.march(Method::QuadraticTaylor, MarchOptions { secondary, ..options }, &[ray], |_| {}).unwrap().results[0];
         assert_eq!(res.counts[3] & FLAG_HIT, FLAG_HIT, "no hit for {ray:?}");
         let o = DVec3::new(ray.o[0].into(), ray.o[1].into(), ray.o[2].into());
         let d = DVec3::new(ray.d[0].into(), ray.d[1].into(), ray.d[2].into());

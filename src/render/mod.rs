@@ -13,7 +13,7 @@ use anyhow::{Result, bail};
 use ash::vk;
 
 use crate::field::Field;
-use crate::field::quad::QuadSettings;
+use crate::settings::QuadSettings;
 use crate::gpu::{Buffer, ComputePipeline, Context, Submitter};
 use crate::layout::{self, GpuBound, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuResult, GpuRay};
 use crate::method::Method;
@@ -45,10 +45,25 @@ struct PipelineKey {
     generic: bool,
 }
 
+impl PipelineKey {
+    /// The pipeline that marches (or probes) with `method` and `options`.
+    fn new(entry: EntryPoint, method: Method, options: &MarchOptions) -> PipelineKey {
+        PipelineKey {
+            entry,
+            method,
+            shade: options.shade,
+            cull: options.cull,
+            extension: options.quad.extension,
+            transparent: options.transparent,
+            secondary: options.secondary,
+            generic: options.generic,
+        }
+    }
+}
+
 /// Rays per dispatch: big images become many bounded dispatches.
 pub const TILE_RAYS: usize = 1 << 16;
 const WORKGROUP: usize = 64;
-const BINDINGS: u32 = 8;
 const PUSH_CONSTANT_BYTES: u32 = 12;
 
 /// Loop iterations one invocation may run per dispatch. lavapipe silently
@@ -123,7 +138,59 @@ pub struct MarchOutput {
     pub gpu_ns: Option<f64>,
 }
 
-/// The scene's data on the GPU and one pipeline per method used so far.
+/// How one call marches: the settings that pick a pipeline's
+/// specialisation, and the interval growth. A value passed to each
+/// [`Renderer::march`] and [`Renderer::probe_bounds`], so that a caller
+/// that marches differently once (a benchmark variant, a generation of
+/// secondary rays) says so for that call and leaves nothing to restore.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MarchOptions {
+    /// Shade hits (off: only hit distances, normals and counts, as the
+    /// benchmarks need).
+    pub shade: bool,
+    /// Interval growth k for every method; `None`: each method's default.
+    pub growth: Option<f64>,
+    /// Skip, per ray, the primitives whose support the ray no longer meets
+    /// (scenes of at most 64 primitives). Results are identical either way.
+    pub cull: bool,
+    /// Settings of the bottom-up quadratic bounds.
+    pub quad: QuadSettings,
+    /// Every crossing along each ray (transparent rendering).
+    pub transparent: bool,
+    /// Rays that start just past a surface (reflected, refracted): the
+    /// side is the field's sign at the start, and the march stops at the
+    /// first sign change (entering or leaving).
+    pub secondary: bool,
+    /// Compile pipelines for any scene: every primitive kind and the max of
+    /// groups kept in, instead of only what this scene uses (to measure
+    /// what specialisation buys; results are identical).
+    pub generic: bool,
+}
+
+impl MarchOptions {
+    /// How `scene` asks to be marched: shaded and culled, with its
+    /// `marching` growth and quadratic settings, transparent when it has a
+    /// `transparency`, primary rays, pipelines specialised to it.
+    pub fn for_scene(scene: &Scene) -> MarchOptions {
+        MarchOptions {
+            shade: true,
+            growth: scene.marching.growth,
+            cull: true,
+            quad: scene.marching.quad,
+            transparent: scene.transparency.is_some(),
+            secondary: false,
+            generic: false,
+        }
+    }
+
+    /// The interval growth `method` marches with.
+    fn growth_of(&self, method: Method) -> f64 {
+        self.growth.unwrap_or_else(|| method.default_growth())
+    }
+}
+
+/// The scene's data on the GPU and one pipeline per method and options
+/// used so far.
 pub struct Renderer {
     ctx: Arc<Context>,
     scene: Scene,
@@ -140,27 +207,6 @@ pub struct Renderer {
     submitter: Submitter,
     /// Give up when the GPU is not done by then.
     pub timeout: Duration,
-    pub shade: bool,
-    /// Interval growth k for every method; `None`: the scene's, else each
-    /// method's default.
-    pub growth: Option<f64>,
-    /// Skip, per ray, the primitives whose support the ray no longer meets
-    /// (scenes of at most 64 primitives). Results are identical either way.
-    pub cull: bool,
-    /// Settings of the bottom-up quadratic bounds; from the scene's
-    /// `marching`.
-    pub quad: QuadSettings,
-    /// Every crossing along each ray (transparent rendering); from the
-    /// scene's `transparency`.
-    pub transparent: bool,
-    /// Rays that start just past a surface (reflected, refracted): the
-    /// side is the field's sign at the start, and the march stops at the
-    /// first sign change (entering or leaving).
-    pub secondary: bool,
-    /// Compile pipelines for any scene: every primitive kind and the max of
-    /// groups kept in, instead of only what this scene uses (to measure
-    /// what specialisation buys; results are identical).
-    pub generic: bool,
 }
 
 /// The primitives in GPU layout, sorted by group.
@@ -284,13 +330,6 @@ impl Renderer {
             ctx: Arc::clone(ctx),
             scene: scene.clone(),
             timeout: Duration::from_secs(600),
-            shade: true,
-            growth: None,
-            cull: true,
-            quad: scene.marching.quad,
-            transparent: scene.transparency.is_some(),
-            secondary: false,
-            generic: false,
         })
     }
 
@@ -324,25 +363,28 @@ impl Renderer {
         self.prims.write(0, prims)
     }
 
-    fn pipeline(&mut self, entry: EntryPoint, method: Method) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
-        let key = PipelineKey {
-            entry,
-            method,
-            shade: self.shade,
-            cull: self.cull,
-            extension: self.quad.extension,
-            transparent: self.transparent,
-            secondary: self.secondary,
-            generic: self.generic,
-        };
+    /// The buffers behind `layout::BINDINGS`, in binding order (the array's
+    /// length is the table's, so a binding added there fails to compile
+    /// until it has its buffer here).
+    fn bound_buffers(&self) -> [&Buffer; layout::BINDINGS.len()] {
+        [&self.globals, &self.prims, &self.lights, &self.rays, &self.results, &self.states, &self.active, &self.crossings]
+    }
+
+    fn pipeline(
+        &mut self,
+        entry: EntryPoint,
+        method: Method,
+        options: &MarchOptions,
+    ) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
+        let key = PipelineKey::new(entry, method, options);
         if !self.pipelines.contains_key(&key) {
             let spec = specialization(&self.scene, method, &key);
             let spirv = match entry {
                 EntryPoint::March => MARCH_SPV,
                 EntryPoint::BoundsProbe => BOUNDS_SPV,
             };
-            let p = ComputePipeline::new(&self.ctx, spirv, BINDINGS, PUSH_CONSTANT_BYTES, &spec)?;
-            p.bind(&[&self.globals, &self.prims, &self.lights, &self.rays, &self.results, &self.states, &self.active, &self.crossings])?;
+            let p = ComputePipeline::new(&self.ctx, spirv, layout::BINDINGS.len() as u32, PUSH_CONSTANT_BYTES, &spec)?;
+            p.bind(&self.bound_buffers())?;
             self.pipelines.insert(key, p);
         }
         let p = &self.pipelines[&key];
@@ -369,15 +411,14 @@ impl Renderer {
         })
     }
 
-    /// What `method` evaluates of the field for each query, a ray with `t0`
-    /// in `o.w` and `t1` in `d.w`: its forward bound, RAA's range, sphere
-    /// tracing's value and gradient at t0, segment tracing's value and
-    /// Lipschitz bound (see [`GpuBound`]).
-    pub fn probe_bounds(&mut self, method: Method, queries: &[GpuRay]) -> Result<Vec<GpuBound>> {
+    /// What `method` with `options` evaluates of the field for each query,
+    /// a ray with `t0` in `o.w` and `t1` in `d.w`: its forward bound, RAA's
+    /// range, sphere tracing's value and gradient at t0, segment tracing's
+    /// value and Lipschitz bound (see [`GpuBound`]).
+    pub fn probe_bounds(&mut self, method: Method, options: MarchOptions, queries: &[GpuRay]) -> Result<Vec<GpuBound>> {
         let deadline = Instant::now() + self.timeout;
-        let handles = self.pipeline(EntryPoint::BoundsProbe, method)?;
-        let growth = self.growth.or(self.scene.marching.growth).unwrap_or_else(|| method.default_growth());
-        self.globals.write(0, &[globals(&self.scene, growth, self.quad)])?;
+        let handles = self.pipeline(EntryPoint::BoundsProbe, method, &options)?;
+        self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad)])?;
         let mut out = Vec::with_capacity(queries.len());
         for tile in queries.chunks(TILE_RAYS) {
             self.rays.write(0, tile)?;
@@ -387,15 +428,21 @@ impl Renderer {
         Ok(out)
     }
 
-    /// Marches `rays` with `method`, one tile per submission, each tile in
-    /// slices until every ray is done, all within `self.timeout`.
-    /// `progress` gets the number of rays done after each tile.
-    pub fn march(&mut self, method: Method, rays: &[GpuRay], mut progress: impl FnMut(usize)) -> Result<MarchOutput> {
+    /// Marches `rays` with `method` and `options`, one tile per submission,
+    /// each tile in slices until every ray is done, all within
+    /// `self.timeout`. `progress` gets the number of rays done after each
+    /// tile.
+    pub fn march(
+        &mut self,
+        method: Method,
+        options: MarchOptions,
+        rays: &[GpuRay],
+        mut progress: impl FnMut(usize),
+    ) -> Result<MarchOutput> {
         let deadline = Instant::now() + self.timeout;
-        let handles = self.pipeline(EntryPoint::March, method)?;
-        let growth = self.growth.or(self.scene.marching.growth).unwrap_or_else(|| method.default_growth());
-        self.globals.write(0, &[globals(&self.scene, growth, self.quad)])?;
-        if (self.transparent || self.secondary) && matches!(method, Method::LinearBisection | Method::Raa) {
+        let handles = self.pipeline(EntryPoint::March, method, &options)?;
+        self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad)])?;
+        if (options.transparent || options.secondary) && matches!(method, Method::LinearBisection | Method::Raa) {
             bail!("{method} marches opaque scenes only: its bisection looks for a first entering crossing; use an Algorithm 1 method for transparency, reflection and refraction");
         }
         let mut results = Vec::with_capacity(rays.len());
@@ -418,7 +465,7 @@ impl Renderer {
                 }
             }
             let tile_results = self.results.read::<GpuResult>(0, tile.len())?;
-            if self.transparent {
+            if options.transparent {
                 let max = layout::MAX_CROSSINGS as usize;
                 let all = self.crossings.read::<f32>(0, tile.len() * max)?;
                 for (r, ts) in tile_results.iter().zip(all.chunks(max)) {

@@ -7,7 +7,7 @@ use std::time::Duration;
 use anyhow::Result;
 use serde::Serialize;
 
-use super::Renderer;
+use super::{MarchOptions, Renderer};
 use super::rays::camera_rays;
 use crate::gpu::Context;
 use crate::method::Method;
@@ -68,7 +68,7 @@ pub fn render_frame(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Frame, March
     let mut renderer = Renderer::new(ctx, &scene)?;
     renderer.timeout = job.timeout;
     let (rays, pixels) = camera_rays(&scene.camera, job.width, job.height, &scene.bounds);
-    let out = march_frame(&mut renderer, job.method, &rays)?;
+    let out = march_frame(&mut renderer, job.method, MarchOptions::for_scene(&scene), &rays)?;
     Ok((Frame::from_results(job.width, job.height, &out.results, &pixels), pixel_stats(&out, &pixels)))
 }
 
@@ -78,11 +78,16 @@ pub fn pixel_stats(out: &super::MarchOutput, pixels: &[Option<u32>]) -> MarchSta
     MarchStats::of(out.results.iter().zip(pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| r), out.gpu_ns)
 }
 
-/// Marches a frame's camera rays. A dielectric scene (transparency with an
-/// index of refraction) is traced through its reflections and refractions
-/// (`optics::trace`): each pixel's colour is the traced one, and its steps
-/// and evaluations count every ray spawned for it.
-pub fn march_frame(renderer: &mut Renderer, method: Method, rays: &[crate::layout::GpuRay]) -> Result<super::MarchOutput> {
+/// Marches a frame's camera rays with `options`. A dielectric scene
+/// (transparency with an index of refraction) is traced through its
+/// reflections and refractions (`optics::trace`): each pixel's colour is the
+/// traced one, and its steps and evaluations count every ray spawned for it.
+pub fn march_frame(
+    renderer: &mut Renderer,
+    method: Method,
+    options: MarchOptions,
+    rays: &[crate::layout::GpuRay],
+) -> Result<super::MarchOutput> {
     let dielectric = renderer.scene().transparency.and_then(|t| {
         t.ior.map(|ior| super::optics::Dielectric {
             ior,
@@ -92,9 +97,9 @@ pub fn march_frame(renderer: &mut Renderer, method: Method, rays: &[crate::layou
         })
     });
     let Some(material) = dielectric else {
-        return renderer.march(method, rays, |_| {});
+        return renderer.march(method, options, rays, |_| {});
     };
-    let traced = super::optics::trace(renderer, method, rays, material)?;
+    let traced = super::optics::trace(renderer, method, options, rays, material)?;
     let mut results = traced.first;
     for (i, r) in results.iter_mut().enumerate() {
         let c = traced.color[i];

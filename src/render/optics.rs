@@ -6,7 +6,7 @@
 use anyhow::Result;
 use glam::DVec3;
 
-use super::Renderer;
+use super::{MarchOptions, Renderer};
 use crate::layout::{FLAG_HIT, GpuRay};
 use crate::method::Method;
 use crate::scene::Scene;
@@ -93,17 +93,9 @@ pub fn environment(scene: &Scene, d: DVec3) -> DVec3 {
 /// generation is one GPU march of secondary rays (they start just past the
 /// surface and stop at the next crossing, entering or leaving). A path
 /// still bouncing after `max_depth` hits takes the environment ahead.
-pub fn trace(renderer: &mut Renderer, method: Method, rays: &[GpuRay], material: Dielectric) -> Result<Traced> {
-    // Every generation stops at its next crossing; the renderer's own
-    // settings come back whatever happens.
-    let saved = (renderer.secondary, renderer.transparent);
-    renderer.transparent = false;
-    let traced = trace_generations(renderer, method, rays, material);
-    (renderer.secondary, renderer.transparent) = saved;
-    traced
-}
-
-fn trace_generations(renderer: &mut Renderer, method: Method, rays: &[GpuRay], material: Dielectric) -> Result<Traced> {
+/// `options` are the camera rays' own; every generation stops at its next
+/// crossing whatever their `transparent` says.
+pub fn trace(renderer: &mut Renderer, method: Method, options: MarchOptions, rays: &[GpuRay], material: Dielectric) -> Result<Traced> {
     if matches!(method, Method::LinearBisection | Method::Raa) {
         anyhow::bail!("{method} marches opaque scenes only; use an Algorithm 1 method for reflection and refraction");
     }
@@ -122,8 +114,8 @@ fn trace_generations(renderer: &mut Renderer, method: Method, rays: &[GpuRay], m
         if current.is_empty() {
             break;
         }
-        renderer.secondary = depth > 0;
-        let marched = renderer.march(method, &current, |_| {})?;
+        let generation = MarchOptions { transparent: false, secondary: depth > 0, ..options };
+        let marched = renderer.march(method, generation, &current, |_| {})?;
         if depth == 0 {
             out.first = marched.results.clone();
         }
