@@ -25,7 +25,7 @@ void main() {
     } else {
         GpuMarchState s = states[i];
         if ((s.n.w & FLAG_DONE) != 0u) return;
-        m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w, s.node.x, s.node.y, s.node.z, s.v.w, s.light.w, s.light.rgb, s.trans.rgb,
+        m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w, s.node.x, s.node.y, s.node.w, s.node.z, s.v.w, s.light.w, s.light.rgb, s.trans.rgb,
                   s.refine.x, s.refine.y, uint(s.refine.z));
         g_evals = s.n.y;
     }
@@ -47,7 +47,7 @@ void main() {
         }
     }
     states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, m.first), uvec4(m.steps, g_evals, m.refine_evals, m.flags),
-                              uvec4(m.depth, m.index, m.crossings, 0u), vec4(m.color, m.last), vec4(m.transmittance, 0.0),
+                              uvec4(m.depth, m.index, m.crossings, m.base_depth), vec4(m.color, m.last), vec4(m.transmittance, 0.0),
                               vec4(m.ra, m.rb, float(m.bisections), 0.0));
     if ((m.flags & FLAG_DONE) == 0u) {
         atomicAdd(active_rays, 1u);

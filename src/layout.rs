@@ -93,10 +93,18 @@ gpu_structs! {
     /// tolerance, w global Lipschitz bound (sphere tracing).
     /// `sizes`: x primitive count, y group count, z light count, w max steps.
     /// `tuning`: x interval growth factor k (Algorithm 1), y the peak below
-    /// which a Gaussian imposes no validity interval (`quadratic`), zw reserved.
+    /// which a Gaussian imposes no validity interval (`quadratic`), z the
+    /// longest candidate interval of a step with the spatial index (0: no
+    /// limit), w reserved.
     /// `material`: transparent rendering's absorption per unit length (rgb)
     /// and opacity of a surface crossing (w).
-    struct GpuGlobals { march: Vec4, sizes: UVec4, tuning: Vec4, background: Vec4, surface: Vec4, ambient: Vec4, material: Vec4 }
+    /// `grid`: the spatial index's box, xyz its minimum corner, w the cell
+    /// size; `grid_dims`: xyz cells per axis, w lists per group (the cells
+    /// and one everywhere list; see shaders/include/grid.glsl).
+    struct GpuGlobals {
+        march: Vec4, sizes: UVec4, tuning: Vec4, background: Vec4, surface: Vec4, ambient: Vec4, material: Vec4,
+        grid: Vec4, grid_dims: UVec4,
+    }
 
     /// A directional light: `dir.xyz` towards the light (unit), `color.rgb`
     /// already multiplied by the intensity.
@@ -154,6 +162,7 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
     (7, "SC_EXTENSION"),
     (8, "SC_TRANSPARENT"),
     (9, "SC_SECONDARY"),
+    (10, "SC_INDEX"),
 ];
 
 /// Integer constants shared with GLSL, as `(name, value)`.
@@ -247,6 +256,19 @@ pub const BINDINGS: &[Binding] = &[
         block: Block { access: Access::WriteOnly, name: "CrossingBuffer", member: "float crossings[]" },
         probe: None,
         doc: &["Transparent rendering: each ray's crossings, MAX_CROSSINGS per ray, in", "order; the first is entering, then they alternate."],
+    },
+    Binding {
+        index: 8,
+        block: Block { access: Access::ReadWrite, name: "CellBuffer", member: "uint cell_start[]" },
+        probe: None,
+        doc: &["The spatial index (grid.glsl, index.comp): where each list starts in", "cell_entries, and the total at the end."],
+    },
+    Binding { index: 9, block: Block { access: Access::ReadWrite, name: "EntryBuffer", member: "uint cell_entries[]" }, probe: None, doc: &[] },
+    Binding {
+        index: 10,
+        block: Block { access: Access::ReadWrite, name: "IndexScratch", member: "uint index_scratch[]" },
+        probe: None,
+        doc: &["The index build's scratch: the longest list, block totals, fill counters."],
     },
 ];
 

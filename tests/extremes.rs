@@ -7,9 +7,9 @@
 //! a few blobs, enough to meet every code path (supports entered and left,
 //! sums, maxes, both kernels) in seconds; the primitive count is swept
 //! from 1 to 10,000 on few rays (the f64 reference visits every primitive
-//! at each of its many small steps); scenes beyond one loop turn's budget
-//! (`render::max_primitives`, 11,969) are refused until an acceleration
-//! structure exists.
+//! at each of its many small steps; above 64 primitives the GPU marches
+//! with the spatial index); a pile of primitives beyond what one step can
+//! visit within the loop budget is refused.
 
 mod common;
 
@@ -253,10 +253,12 @@ fn one_to_ten_thousand_primitives() {
         let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
         check_methods(&ctx, &s, &rays, methods, tol, tol, |_| 0, &format!("{n} primitives"));
     }
-    // Beyond what one loop turn can visit: refused with a clear message.
-    let too_many = blobs(isomarch::render::max_primitives() + 1);
-    let err = Renderer::new(&ctx, &too_many).err().expect("too many primitives must be refused");
-    assert!(format!("{err:#}").contains("acceleration structure"), "{err:#}");
+    // More primitives in one place than one step can visit within the
+    // loop budget (20,000 coincident blobs): refused with a clear message.
+    let mut piled = blobs(1);
+    piled.groups[0] = vec![piled.groups[0][0]; 20_000];
+    let err = Renderer::new(&ctx, &piled).err().expect("a pile of primitives beyond the loop budget must be refused");
+    assert!(format!("{err:#}").contains("overlap in one place"), "{err:#}");
     assert_no_validation(&ctx);
 }
 

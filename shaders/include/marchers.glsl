@@ -24,6 +24,7 @@ struct March {
     uint flags;
     uint depth;         // bisection: the current node of the binary
     uint index;         //   subdivision of [tmin, tmax]
+    uint base_depth;    //   the depth it starts at (its coarsest nodes)
     // Transparent rendering:
     uint crossings;     // crossings found so far
     float first;        // the first crossing
@@ -39,8 +40,19 @@ struct March {
 // The ray being marched (its crossings go to crossings[]).
 uint g_ray = 0u;
 
+// The longest candidate interval (with the spatial index, so that a step
+// walks a bounded number of cells: globals.tuning.z; 0 is no limit).
+float window_cap(float window) {
+    return globals.tuning.z > 0.0 ? min(window, globals.tuning.z) : window;
+}
+
 March march_start(float tmin, float tmax) {
-    March m = March(tmin, tmin, tmax - tmin, 0u, 0u, 0u, 0u, 0u, 0u, -1.0, tmin, vec3(0.0), vec3(1.0), 0.0, 0.0, 0u);
+    March m = March(tmin, tmin, window_cap(tmax - tmin), 0u, 0u, 0u, 0u, 0u, 0u, 0u, -1.0, tmin, vec3(0.0), vec3(1.0), 0.0, 0.0, 0u);
+    // Bisection starts at nodes no longer than the cap.
+    if (globals.tuning.z > 0.0 && tmax - tmin > globals.tuning.z) {
+        m.base_depth = min(uint(ceil(log2((tmax - tmin) / globals.tuning.z))), 24u);
+        m.depth = m.base_depth;
+    }
     if (!(tmax >= tmin)) m.flags = FLAG_DONE;
     return m;
 }
@@ -138,7 +150,7 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
     m.t_prev = m.t;
     m.t = min(m.t + step, tmax);
     if (m.t >= tmax && safe >= tmax - m.t_prev) m.flags |= (m.flags & FLAG_REFINING) != 0u ? FLAG_ENDED : FLAG_DONE;
-    m.window = globals.tuning.x * step;
+    m.window = window_cap(globals.tuning.x * step);
 }
 
 // One loop turn of a refinement: halve the bracket down to the tolerance
@@ -168,11 +180,11 @@ void refine_turn(vec3 o, vec3 u, inout March m) {
 // order: the next sibling, climbing while it was a right child.
 void bisection_advance(inout March m) {
     m.index += 1u;
-    while (m.depth > 0u && (m.index & 1u) == 0u) {
+    while (m.depth > m.base_depth && (m.index & 1u) == 0u) {
         m.index >>= 1u;
         m.depth -= 1u;
     }
-    if (m.depth == 0u && m.index >= 1u) m.flags |= FLAG_DONE;
+    if (m.depth == m.base_depth && m.index >= (1u << m.base_depth)) m.flags |= FLAG_DONE;
 }
 
 // The paper's interval-arithmetic baselines (Section 7.1, Figure 10 e, f):

@@ -5,17 +5,19 @@
 // within a group, and groups combine by max (Eq. 20). Mirrors the fold of
 // src/field/fold.rs.
 //
-// A spatial index replaces only the cursor. Its contract: it yields every
-// primitive whose support meets the query (a point, or the ray on
-// [t0, t1]), each once, and a group's primitives one after another (groups
-// in any order). The accumulator folds the group it is summing into the
-// max when the group changes. It starts on group 0, so a query that meets
-// no primitive still gets the empty sum, 0 - iso.
+// The cursor is the flat list (per-ray culling, small scenes) or the
+// spatial index (SC_INDEX). Its contract: it yields every primitive whose
+// support meets the query (a point, or the ray on [t0, t1]), each once,
+// and a group's primitives one after another (groups in any order). The
+// accumulator folds the group it is summing into the max when the group
+// changes. It starts on group 0, so a query that meets no primitive still
+// gets the empty sum, 0 - iso.
 #ifndef TRAVERSE_GLSL
 #define TRAVERSE_GLSL
 
 #include "field.glsl"
 #include "inclusion.glsl"
+#include "grid.glsl"
 
 // What a fold evaluates.
 const uint EVAL_VALUE = 0u;       // f at a point
@@ -26,16 +28,24 @@ const uint EVAL_LINEAR = 4u;      // bottom-up linear bound
 const uint EVAL_QUAD = 5u;        // bottom-up quadratic bound (may shorten the interval)
 const uint EVAL_RAA = 6u;         // revised affine arithmetic range
 
-// A query: the ray o + t u on [t0, t1]; a point query is at o.
+// A query: the ray o + t u on [t0, t1], or the point o.
 struct Query {
     vec3 o;
     vec3 u;
     float t0;
     float t1;
+    bool point;
 };
 
-// --- The cursor: the flat list of primitives, in buffer order (sorted by
-// group), minus those per-ray culling ruled out.
+Query point_query(vec3 p) {
+    return Query(p, vec3(0.0), 0.0, 0.0, true);
+}
+
+Query ray_query(vec3 o, vec3 u, float t0, float t1) {
+    return Query(o, u, t0, t1, false);
+}
+
+// --- Per-ray culling, the flat cursor's set-up (without SC_INDEX).
 
 // With SC_CULL: bit i is set when primitive i's support meets the part of
 // the ray still to march (cull_to_ray), and the cursor skips the rest.
@@ -77,30 +87,149 @@ void uncull() {
     g_mask = uvec2(0xffffffffu);
 }
 
-// One loop turn per position; a position may yield a primitive or not (a
-// culled primitive here; an inner node of a tree for an index).
+// --- The cursor. One loop turn per position; a position may yield a
+// primitive or not (a culled one; an empty cell, a primitive seen in an
+// earlier cell). Without SC_INDEX: the flat list, culled. With SC_INDEX:
+// per group, its everywhere list and then the grid's lists along the query
+// (the one cell of a point; the cells a 3D DDA walks for an interval),
+// each primitive yielded in the first cell where the ray meets its support.
+const uint NO_PRIMITIVE = 0xffffffffu;
+
 struct Cursor {
-    uint at;
+    uint at;        // the current entry (flat: the primitive)
+    uint end;       // the end of the current list
+    uint group;     // SC_INDEX: the group walked
+    bool in_grid;   //   past the group's everywhere list
+    bool done;      //   every group walked
+    // The DDA over the grid's cells: the cell, its part [ta, tb] of the
+    // query, the next boundary per axis, the step between boundaries.
+    ivec3 cell;
+    ivec3 dir;
+    vec3 t_next;
+    vec3 t_delta;
+    float ta;
+    float tb;
+    float t_end;
+    bool first_cell;
 };
 
+// The DDA's start for the query: false when it misses the grid. A point
+// is a cell; an interval is clipped to the grid's box.
+bool dda_start(Query q, inout Cursor c) {
+    vec3 lo = globals.grid.xyz;
+    float h = globals.grid.w;
+    vec3 hi = lo + h * vec3(globals.grid_dims.xyz);
+    c.first_cell = true;
+    if (q.point) {
+        if (any(lessThan(q.o, lo)) || any(greaterThanEqual(q.o, hi))) return false;
+        c.cell = cell_of(q.o);
+        return true;
+    }
+    vec3 inv_u = vec3(q.u.x < 0.0 ? -1.0 : 1.0, q.u.y < 0.0 ? -1.0 : 1.0, q.u.z < 0.0 ? -1.0 : 1.0) / max(abs(q.u), vec3(1e-30));
+    vec3 ta3 = (lo - q.o) * inv_u;
+    vec3 tb3 = (hi - q.o) * inv_u;
+    vec3 tmin3 = min(ta3, tb3);
+    vec3 tmax3 = max(ta3, tb3);
+    float t_in = max(q.t0, max(tmin3.x, max(tmin3.y, tmin3.z)));
+    c.t_end = min(q.t1, min(tmax3.x, min(tmax3.y, tmax3.z)));
+    if (t_in > c.t_end) return false;
+    c.cell = cell_of(q.o + t_in * q.u);
+    c.dir = ivec3(q.u.x > 0.0 ? 1 : q.u.x < 0.0 ? -1 : 0, q.u.y > 0.0 ? 1 : q.u.y < 0.0 ? -1 : 0, q.u.z > 0.0 ? 1 : q.u.z < 0.0 ? -1 : 0);
+    vec3 boundary = lo + h * (vec3(c.cell) + vec3(greaterThan(c.dir, ivec3(0))));
+    c.t_next = mix((boundary - q.o) * inv_u, vec3(3.0e38), equal(c.dir, ivec3(0)));
+    c.t_delta = h * abs(inv_u);
+    c.ta = t_in;
+    c.tb = min(c.t_end, min(c.t_next.x, min(c.t_next.y, c.t_next.z)));
+    return true;
+}
+
+void cursor_enter_list(inout Cursor c, uint list) {
+    c.at = cell_start[list];
+    c.end = cell_start[list + 1u];
+}
+
+// The group's everywhere list, then its first cell (if the query meets
+// the grid), or the next group.
+void cursor_enter_group(Query q, inout Cursor c) {
+    c.in_grid = false;
+    cursor_enter_list(c, everywhere_list(c.group));
+}
+
 Cursor cursor_begin(Query q) {
-    return Cursor(0u);
+    Cursor c;
+    c.at = 0u;
+    c.end = globals.sizes.x;
+    c.group = 0u;
+    c.done = false;
+    if (SC_INDEX != 0u) cursor_enter_group(q, c);
+    return c;
 }
 
 bool cursor_valid(Cursor c) {
-    return c.at < globals.sizes.x;
+    return SC_INDEX != 0u ? !c.done : c.at < c.end;
 }
 
-bool cursor_yields(Cursor c) {
-    return SC_CULL == 0u || ((g_mask[c.at >> 5u] >> (c.at & 31u)) & 1u) != 0u;
-}
-
+// The primitive at the cursor's position, or NO_PRIMITIVE.
 uint cursor_primitive(Cursor c) {
-    return c.at;
+    if (SC_INDEX != 0u) return c.at < c.end ? cell_entries[c.at] : NO_PRIMITIVE;
+    return SC_CULL == 0u || ((g_mask[c.at >> 5u] >> (c.at & 31u)) & 1u) != 0u ? c.at : NO_PRIMITIVE;
 }
 
-void cursor_advance(inout Cursor c) {
+// Whether the cursor hands pr to the evaluations. With the index: a
+// Gaussian is clipped at its radius for the index (pr.c.y), so that the
+// field does not depend on the cell it is evaluated in; along an interval,
+// a primitive of the grid is yielded once, in the cell where the query
+// first meets its support (the cells' parts of the query partition it;
+// the first and last open to either side), and not at all when the query
+// misses its support.
+bool cursor_admits(Cursor c, GpuPrimitive pr, Query q) {
+    if (SC_INDEX == 0u) return true;
+    if (q.point) {
+        vec3 d = q.o - pr.a.xyz;
+        return pr.ids.x != PRIM_GAUSSIAN_POINT || dot(d, d) < pr.c.y * pr.c.y;
+    }
+    if (!c.in_grid) return true;
+    vec2 g = point_on_ray(pr, q.o, q.u, 0.0);   // (h², -tc)
+    float r2 = pr.c.y * pr.c.y;
+    if (g.x >= r2) return false;
+    float s = sqrt(r2 - g.x);
+    float t_in = max(q.t0, -g.y - s);
+    if (t_in > min(q.t1, -g.y + s)) return false;
+    bool last = c.tb >= c.t_end;
+    return (c.first_cell || t_in >= c.ta) && (last || t_in < c.tb);
+}
+
+// Moves to the next position: the next entry of the list, else the next
+// list (cell, group).
+void cursor_advance(Query q, inout Cursor c) {
     c.at += 1u;
+    if (SC_INDEX == 0u || c.at < c.end) return;
+    if (!c.in_grid) {
+        c.in_grid = true;
+        if (dda_start(q, c)) {
+            cursor_enter_list(c, cell_list(c.group, c.cell));
+            return;
+        }
+    } else if (!q.point && c.tb < c.t_end) {
+        // The DDA's next cell: across the nearest boundary.
+        int axis = c.t_next.x <= c.t_next.y && c.t_next.x <= c.t_next.z ? 0 : c.t_next.y <= c.t_next.z ? 1 : 2;
+        c.cell[axis] += c.dir[axis];
+        c.t_next[axis] += c.t_delta[axis];
+        c.ta = c.tb;
+        c.tb = min(c.t_end, min(c.t_next.x, min(c.t_next.y, c.t_next.z)));
+        c.first_cell = false;
+        if (c.cell[axis] >= 0 && c.cell[axis] < int(globals.grid_dims[axis])) {
+            cursor_enter_list(c, cell_list(c.group, c.cell));
+            return;
+        }
+    }
+    // The group is walked: the next one.
+    c.group += 1u;
+    if (c.group >= globals.sizes.y) {
+        c.done = true;
+        return;
+    }
+    cursor_enter_group(q, c);
 }
 
 // --- Terms: what one primitive adds to its group's sum. Each evaluation
@@ -266,9 +395,11 @@ Fold fold_field(uint what, Query q, inout float len) {
     Fold r = Fold(-3.0e38, vec3(0.0), 0.0, Bound(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), false, vec2(-3.0e38), false);
     Terms sum = no_terms();
     uint group = 0u;
-    for (Cursor c = cursor_begin(q); cursor_valid(c); cursor_advance(c)) {
-        if (!cursor_yields(c)) continue;
-        GpuPrimitive pr = prims[cursor_primitive(c)];
+    for (Cursor c = cursor_begin(q); cursor_valid(c); cursor_advance(q, c)) {
+        uint i = cursor_primitive(c);
+        if (i == NO_PRIMITIVE) continue;
+        GpuPrimitive pr = prims[i];
+        if (!cursor_admits(c, pr, q)) continue;
         if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
             fold_group(what, sum, len, r);
             sum = no_terms();
@@ -291,7 +422,7 @@ Fold fold_field(uint what, Query q, inout float len) {
 // the group attaining the max when want_grad.
 float field_eval(vec3 p, bool want_grad, out vec3 grad) {
     float len = 0.0;
-    Fold r = fold_field(want_grad ? EVAL_GRADIENT : EVAL_VALUE, Query(p, vec3(0.0), 0.0, 0.0), len);
+    Fold r = fold_field(want_grad ? EVAL_GRADIENT : EVAL_VALUE, point_query(p), len);
     grad = r.grad;
     return r.v - globals.march.x;
 }
@@ -305,7 +436,7 @@ float field(vec3 p) {
 // pass over the primitives: max over groups of sums for both.
 float field_and_lipschitz(vec3 o, vec3 u, float ta, float tb, out float lambda) {
     float len = tb - ta;
-    Fold r = fold_field(EVAL_LIPSCHITZ, Query(o, u, ta, tb), len);
+    Fold r = fold_field(EVAL_LIPSCHITZ, ray_query(o, u, ta, tb), len);
     lambda = r.slope;
     return r.v - globals.march.x;
 }
@@ -313,7 +444,7 @@ float field_and_lipschitz(vec3 o, vec3 u, float ta, float tb, out float lambda) 
 // Range of f = max over groups (sums) - iso over [ta, tb].
 vec2 field_raa(vec3 o, vec3 u, float ta, float tb) {
     float len = tb - ta;
-    return fold_field(EVAL_RAA, Query(o, u, ta, tb), len).range - globals.march.x;
+    return fold_field(EVAL_RAA, ray_query(o, u, ta, tb), len).range - globals.march.x;
 }
 
 bool bottom_up_quadratic() {
@@ -329,7 +460,7 @@ Bound method_bound(vec3 o, vec3 u, float t0, inout float t1) {
               : SC_METHOD == METHOD_LINEAR || SC_METHOD == METHOD_LINEAR_BISECTION ? EVAL_LINEAR
               : EVAL_TAYLOR;
     float len = t1 - t0;
-    Bound b = fold_field(what, Query(o, u, t0, t1), len).bound;
+    Bound b = fold_field(what, ray_query(o, u, t0, t1), len).bound;
     b.v -= globals.march.x;
     t1 = t0 + len;
     return b;

@@ -1,6 +1,7 @@
 //! Marching rays on the GPU: scene upload, specialised pipelines, tiled
 //! dispatches with deadlines.
 
+pub mod index;
 pub mod offscreen;
 pub mod optics;
 pub mod rays;
@@ -17,12 +18,15 @@ use crate::settings::QuadSettings;
 use crate::gpu::{Buffer, ComputePipeline, Context, Submitter};
 use crate::layout::{self, GpuBound, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuResult, GpuRay};
 use crate::method::Method;
+use index::{GridSpec, IndexStats};
 use crate::scene::{self, Primitive, Scene};
 
 /// SPIR-V of the march kernel, built by build.rs.
 const MARCH_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march.spv"));
 /// SPIR-V of the bounds probe (tests of the inclusion functions).
 const BOUNDS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bounds.spv"));
+/// SPIR-V of the spatial index's build.
+const INDEX_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/index.spv"));
 
 /// Which entry point a pipeline runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -75,34 +79,39 @@ const LOOP_BUDGET: usize = 60_000;
 /// slice may add beyond their passes over the primitives.
 const SMALL_LOOPS: usize = 72;
 
-/// Loop iterations of one turn of the march loop: a step makes at most
-/// three passes over the primitives (bisection: the range, and the field at
-/// both ends; transparent: the bound and a crossing's normal), a
-/// refinement turn one or two.
-fn turn_cost(primitives: usize, lights: usize) -> usize {
-    3 * primitives + lights + SMALL_LOOPS
+/// Loop iterations of one fold over the primitives: along an interval
+/// (a step's bound) and at a point (a value, a normal).
+#[derive(Clone, Copy, Debug)]
+struct FoldCost {
+    interval: usize,
+    point: usize,
 }
 
-/// Once per slice: culling, and the final normal and shading.
-fn slice_cost(primitives: usize, lights: usize) -> usize {
-    2 * (primitives + 1) + lights + SMALL_LOOPS
+impl FoldCost {
+    /// Without the index: every primitive, plus one turn per primitive to
+    /// cull them once per slice.
+    fn flat(primitives: usize) -> FoldCost {
+        FoldCost { interval: primitives, point: primitives }
+    }
+
+    /// With the index whose longest list holds `longest` entries.
+    fn indexed(grid: &GridSpec, longest: usize) -> FoldCost {
+        FoldCost { interval: grid.interval_iterations(longest), point: grid.point_iterations(longest) }
+    }
 }
 
-/// The most primitives one loop turn can visit within the loop budget.
-pub fn max_primitives() -> usize {
-    // With up to four lights (more lights lower it: see slice_steps).
-    (LOOP_BUDGET - 2 * SMALL_LOOPS - 2 - 8) / 5
-}
-
-/// Loop turns (steps, or bisections of a refinement) per slice for a
-/// scene of `primitives` primitives and `lights` lights.
-pub fn slice_steps(primitives: usize, lights: usize) -> Result<u32> {
-    let fixed = slice_cost(primitives, lights);
-    let per_turn = turn_cost(primitives, lights);
-    if primitives > max_primitives() || fixed + per_turn > LOOP_BUDGET {
+/// Loop turns (steps, or bisections of a refinement) per slice. A turn
+/// makes at most three folds (bisection: the range, and the field at both
+/// ends; transparent: the bound and a crossing's normal; a refinement one
+/// or two); once per slice come the culling (a flat fold) and the final
+/// normal and shading.
+fn slice_steps(cost: FoldCost, lights: usize) -> Result<u32> {
+    let fixed = 2 * (cost.point + 1) + cost.interval + lights + SMALL_LOOPS;
+    let per_turn = 3 * cost.interval + lights + SMALL_LOOPS;
+    if fixed + per_turn > LOOP_BUDGET {
         bail!(
-            "{primitives} primitives and {lights} lights are more than one marching step can visit within the per-dispatch loop budget ({LOOP_BUDGET} iterations); at most {} are supported until an acceleration structure exists",
-            max_primitives()
+            "one marching step visits up to {} primitives, more than fit the per-dispatch loop budget ({LOOP_BUDGET} iterations); too many primitives overlap in one place",
+            cost.interval
         );
     }
     Ok(((LOOP_BUDGET - fixed) / per_turn) as u32)
@@ -116,12 +125,16 @@ fn max_turns(max_steps: u32) -> u64 {
 
 #[cfg(test)]
 mod tests {
+    use super::{FoldCost, LOOP_BUDGET, slice_steps};
+
     #[test]
-    fn slices_fit_the_loop_budget_up_to_the_primitive_limit() {
-        let n = super::max_primitives();
-        assert!(n >= 10_000);
-        assert!(super::slice_steps(n, 4).unwrap() >= 1);
-        assert!(super::slice_steps(n + 1, 4).is_err());
+    fn slices_fit_the_loop_budget_and_refuse_what_does_not() {
+        let cost = |n| FoldCost { interval: n, point: n };
+        assert!(slice_steps(cost(64), 4).unwrap() >= 100);
+        let most = (1..LOOP_BUDGET).take_while(|&n| slice_steps(cost(n), 4).is_ok()).last().unwrap();
+        assert!(most >= 9_000, "{most}");
+        assert_eq!(slice_steps(cost(most), 4).unwrap(), 1);
+        assert!(format!("{}", slice_steps(cost(most + 1), 4).unwrap_err()).contains("overlap in one place"));
     }
 }
 
@@ -202,6 +215,15 @@ pub struct Renderer {
     states: Buffer,
     active: Buffer,
     crossings: Buffer,
+    /// The spatial index (scenes of more than 64 primitives): its grid,
+    /// list starts, entries and build scratch, its build pipeline, and what
+    /// the last build made.
+    grid: Option<GridSpec>,
+    cells: Buffer,
+    entries: Buffer,
+    scratch: Buffer,
+    index_pipeline: Option<ComputePipeline>,
+    index_stats: Option<IndexStats>,
     slice_steps: u32,
     pipelines: HashMap<PipelineKey, ComputePipeline>,
     submitter: Submitter,
@@ -212,6 +234,7 @@ pub struct Renderer {
 /// The primitives in GPU layout, sorted by group.
 pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
     let field = Field::new(scene);
+    let mut radii = index::index_radii(scene).into_iter();
     let mut out = Vec::with_capacity(scene.primitive_count());
     for (gi, (group, evals)) in scene.groups.iter().zip(&field.groups).enumerate() {
         for (p, e) in group.iter().zip(evals) {
@@ -231,7 +254,7 @@ pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
             out.push(GpuPrimitive {
                 a,
                 b: [k.scale as f32, k.inv as f32, k.weight as f32, k.peak_distance as f32],
-                c: [k.peak_slope as f32, 0.0, 0.0, 0.0],
+                c: [k.peak_slope as f32, radii.next().flatten().unwrap_or(0.0) as f32, 0.0, 0.0],
                 ids: [kind, gi as u32, 0, 0],
             });
         }
@@ -239,7 +262,7 @@ pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
     out
 }
 
-fn globals(scene: &Scene, growth: f64, quad: QuadSettings) -> GpuGlobals {
+fn globals(scene: &Scene, growth: f64, quad: QuadSettings, grid: Option<&GridSpec>) -> GpuGlobals {
     let validity_floor = quad.validity_floor(scene.iso);
     let rgb = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
     GpuGlobals {
@@ -255,13 +278,15 @@ fn globals(scene: &Scene, growth: f64, quad: QuadSettings) -> GpuGlobals {
             scene.lights.len() as u32,
             scene.marching.max_steps,
         ],
-        tuning: [growth as f32, validity_floor as f32, 0.0, 0.0],
+        tuning: [growth as f32, validity_floor as f32, grid.map_or(0.0, |g| g.window as f32), 0.0],
         background: rgb(scene.background),
         surface: rgb(scene.surface),
         ambient: rgb(scene.ambient),
         material: scene.transparency.map_or([0.0; 4], |t| {
             [t.absorption.x as f32, t.absorption.y as f32, t.absorption.z as f32, t.opacity as f32]
         }),
+        grid: grid.map_or([0.0; 4], |g| [g.origin.x as f32, g.origin.y as f32, g.origin.z as f32, g.cell as f32]),
+        grid_dims: grid.map_or([0; 4], |g| [g.dims[0], g.dims[1], g.dims[2], g.lists_per_group as u32]),
     }
 }
 
@@ -269,7 +294,7 @@ fn globals(scene: &Scene, growth: f64, quad: QuadSettings) -> GpuGlobals {
 /// Per-ray support culling keeps one bit per primitive.
 pub const CULL_MAX_PRIMITIVES: usize = 64;
 
-fn specialization(scene: &Scene, method: Method, key: &PipelineKey) -> Vec<(u32, u32)> {
+fn specialization(scene: &Scene, method: Method, key: &PipelineKey, indexed: bool) -> Vec<(u32, u32)> {
     let has = |pred: fn(&Primitive) -> bool| u32::from(key.generic || scene.primitives().any(pred));
     let values = [
         ("SC_METHOD", method.shader_id()),
@@ -278,10 +303,11 @@ fn specialization(scene: &Scene, method: Method, key: &PipelineKey) -> Vec<(u32,
         ("SC_HAS_COMPACT_PLANE", has(|p| matches!(p, Primitive::Plane { .. }))),
         ("SC_MULTI_GROUP", u32::from(key.generic || scene.groups.len() > 1)),
         ("SC_SHADE", u32::from(key.shade)),
-        ("SC_CULL", u32::from(key.cull && scene.primitive_count() <= CULL_MAX_PRIMITIVES)),
+        ("SC_CULL", u32::from(key.cull && !indexed && scene.primitive_count() <= CULL_MAX_PRIMITIVES)),
         ("SC_EXTENSION", u32::from(key.extension)),
         ("SC_TRANSPARENT", u32::from(key.transparent)),
         ("SC_SECONDARY", u32::from(key.secondary)),
+        ("SC_INDEX", u32::from(indexed)),
     ];
     values
         .iter()
@@ -304,8 +330,11 @@ impl Renderer {
                 ctx.info.name
             );
         }
-        let slice_steps =
-            slice_steps(scene.primitive_count(), scene.lights.len()).map_err(|e| anyhow::anyhow!("{}: groups: {e}", scene.source))?;
+        let grid = GridSpec::for_scene(scene);
+        if let Some(g) = &grid {
+            index::check_fits(g, ctx.info.max_storage_buffer_range, &scene.source)?;
+        }
+        let words = grid.map_or([1; 3], |g| g.buffer_words());
         let prims = gpu_primitives(scene);
         let lights: Vec<GpuLight> = scene
             .lights
@@ -315,8 +344,8 @@ impl Renderer {
                 color: [l.color.x as f32, l.color.y as f32, l.color.z as f32, 0.0],
             })
             .collect();
-        Ok(Renderer {
-            globals: Buffer::with_data(ctx, "globals", &[globals(scene, 2.0, scene.marching.quad)])?,
+        let mut renderer = Renderer {
+            globals: Buffer::with_data(ctx, "globals", &[globals(scene, 2.0, scene.marching.quad, grid.as_ref())])?,
             prims: Buffer::with_data(ctx, "primitives", &prims)?,
             lights: Buffer::with_data(ctx, "lights", &lights)?,
             rays: Buffer::new(ctx, "rays", (TILE_RAYS * size_of::<GpuRay>()) as u64)?,
@@ -324,13 +353,94 @@ impl Renderer {
             states: Buffer::new(ctx, "march states", (TILE_RAYS * size_of::<GpuMarchState>()) as u64)?,
             active: Buffer::new(ctx, "active ray count", 16)?,
             crossings: Buffer::new(ctx, "crossings", (TILE_RAYS * layout::MAX_CROSSINGS as usize * size_of::<f32>()) as u64)?,
-            slice_steps,
+            grid,
+            cells: Buffer::new(ctx, "index lists", 4 * words[0] as u64)?,
+            entries: Buffer::new(ctx, "index entries", 4 * words[1] as u64)?,
+            scratch: Buffer::new(ctx, "index scratch", 4 * words[2] as u64)?,
+            index_pipeline: None,
+            index_stats: None,
+            slice_steps: 0,
             pipelines: HashMap::new(),
             submitter: Submitter::new(ctx)?,
             ctx: Arc::clone(ctx),
             scene: scene.clone(),
             timeout: Duration::from_secs(600),
-        })
+        };
+        renderer.build_index()?;
+        Ok(renderer)
+    }
+
+    /// What the last build of the spatial index made (`None` without one).
+    pub fn index_stats(&self) -> Option<IndexStats> {
+        self.index_stats
+    }
+
+    /// Builds the spatial index on the GPU from the primitives uploaded
+    /// (seven dispatches of index.comp in one submission), reads back the
+    /// longest list, and sizes the march's slices to it. Without an index,
+    /// only the slices.
+    fn build_index(&mut self) -> Result<()> {
+        let Some(grid) = self.grid else {
+            self.slice_steps = slice_steps(FoldCost::flat(self.scene.primitive_count()), self.scene.lights.len())
+                .map_err(|e| anyhow::anyhow!("{}: groups: {e}", self.scene.source))?;
+            return Ok(());
+        };
+        self.globals.write(0, &[globals(&self.scene, 2.0, self.scene.marching.quad, Some(&grid))])?;
+        if self.index_pipeline.is_none() {
+            let p = ComputePipeline::new(&self.ctx, INDEX_SPV, layout::BINDINGS.len() as u32, PUSH_CONSTANT_BYTES, &[])?;
+            p.bind(&self.bound_buffers())?;
+            self.index_pipeline = Some(p);
+        }
+        let p = self.index_pipeline.as_ref().expect("created above");
+        let (pipeline, layout, set) = (p.pipeline, p.layout, p.set);
+        let n = self.scene.primitive_count() as u32;
+        let (lists, blocks) = (grid.lists() as u32, grid.blocks() as u32);
+        // (invocations, pass) in order; see index.comp.
+        let passes = [(lists + 1, 0u32), (n, 1), (blocks, 2), (1, 3), (blocks, 4), (n, 5), (lists, 6)];
+        let deadline = Instant::now() + self.timeout;
+        let ns = self.submitter.run(deadline, self.timeout, |d, cmd| {
+            // SAFETY: the pipeline and its set are alive and bound to the
+            // renderer's buffers, sized for this grid.
+            unsafe {
+                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+                d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
+                for (i, (count, pass)) in passes.into_iter().enumerate() {
+                    if i > 0 {
+                        let barrier = vk::MemoryBarrier::default()
+                            .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                            .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE);
+                        d.cmd_pipeline_barrier(
+                            cmd,
+                            vk::PipelineStageFlags::COMPUTE_SHADER,
+                            vk::PipelineStageFlags::COMPUTE_SHADER,
+                            vk::DependencyFlags::empty(),
+                            &[barrier],
+                            &[],
+                            &[],
+                        );
+                    }
+                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&[count, pass, 0u32]));
+                    d.cmd_dispatch(cmd, (count as usize).div_ceil(WORKGROUP) as u32, 1, 1);
+                }
+            }
+        })?;
+        let longest = self.scratch.read::<u32>(0, 1)?[0] as usize;
+        let entries = self.cells.read::<u32>(grid.lists(), 1)?[0] as usize;
+        if entries > grid.entry_capacity {
+            bail!("the spatial index holds {entries} entries, more than the {} it was sized for", grid.entry_capacity);
+        }
+        self.slice_steps = slice_steps(FoldCost::indexed(&grid, longest), self.scene.lights.len())
+            .map_err(|e| anyhow::anyhow!("{}: groups: {e}", self.scene.source))?;
+        let bytes: usize = grid.buffer_words().iter().sum::<usize>() * 4;
+        self.index_stats = Some(IndexStats {
+            build_ns: ns.unwrap_or(f64::NAN),
+            entries,
+            longest_list: longest,
+            bytes_per_primitive: bytes as f64 / f64::from(n.max(1)),
+            cells: grid.lists_per_group - 1,
+            cell_size: grid.cell,
+        });
+        Ok(())
     }
 
     pub fn scene(&self) -> &Scene {
@@ -350,7 +460,22 @@ impl Renderer {
         }
         self.prims.write(0, &gpu_primitives(scene))?;
         self.scene = scene.clone();
-        Ok(())
+        let grid = GridSpec::for_scene(scene);
+        if grid.map(|g| g.buffer_words()) != self.grid.map(|g| g.buffer_words()) {
+            // Another box, other buffer sizes: new buffers, and pipelines
+            // bound to them.
+            let words = grid.map_or([1; 3], |g| g.buffer_words());
+            if let Some(g) = &grid {
+                index::check_fits(g, self.ctx.info.max_storage_buffer_range, &scene.source)?;
+            }
+            self.cells = Buffer::new(&self.ctx, "index lists", 4 * words[0] as u64)?;
+            self.entries = Buffer::new(&self.ctx, "index entries", 4 * words[1] as u64)?;
+            self.scratch = Buffer::new(&self.ctx, "index scratch", 4 * words[2] as u64)?;
+            self.pipelines.clear();
+            self.index_pipeline = None;
+        }
+        self.grid = grid;
+        self.build_index()
     }
 
     /// Overwrites the primitive buffer with raw GPU records, as many as the
@@ -367,7 +492,19 @@ impl Renderer {
     /// length is the table's, so a binding added there fails to compile
     /// until it has its buffer here).
     fn bound_buffers(&self) -> [&Buffer; layout::BINDINGS.len()] {
-        [&self.globals, &self.prims, &self.lights, &self.rays, &self.results, &self.states, &self.active, &self.crossings]
+        [
+            &self.globals,
+            &self.prims,
+            &self.lights,
+            &self.rays,
+            &self.results,
+            &self.states,
+            &self.active,
+            &self.crossings,
+            &self.cells,
+            &self.entries,
+            &self.scratch,
+        ]
     }
 
     fn pipeline(
@@ -378,7 +515,7 @@ impl Renderer {
     ) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
         let key = PipelineKey::new(entry, method, options);
         if !self.pipelines.contains_key(&key) {
-            let spec = specialization(&self.scene, method, &key);
+            let spec = specialization(&self.scene, method, &key, self.grid.is_some());
             let spirv = match entry {
                 EntryPoint::March => MARCH_SPV,
                 EntryPoint::BoundsProbe => BOUNDS_SPV,
@@ -418,7 +555,7 @@ impl Renderer {
     pub fn probe_bounds(&mut self, method: Method, options: MarchOptions, queries: &[GpuRay]) -> Result<Vec<GpuBound>> {
         let deadline = Instant::now() + self.timeout;
         let handles = self.pipeline(EntryPoint::BoundsProbe, method, &options)?;
-        self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad)])?;
+        self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad, self.grid.as_ref())])?;
         let mut out = Vec::with_capacity(queries.len());
         for tile in queries.chunks(TILE_RAYS) {
             self.rays.write(0, tile)?;
@@ -441,7 +578,7 @@ impl Renderer {
     ) -> Result<MarchOutput> {
         let deadline = Instant::now() + self.timeout;
         let handles = self.pipeline(EntryPoint::March, method, &options)?;
-        self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad)])?;
+        self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad, self.grid.as_ref())])?;
         if (options.transparent || options.secondary) && matches!(method, Method::LinearBisection | Method::Raa) {
             bail!("{method} marches opaque scenes only: its bisection looks for a first entering crossing; use an Algorithm 1 method for transparency, reflection and refraction");
         }

@@ -1,0 +1,58 @@
+// The spatial index's geometry: a uniform grid over the scene's box, and
+// per group one list of primitives per cell plus one "everywhere" list
+// (planes, and primitives whose support covers too many cells). Built by
+// index.comp every frame, walked by the cursor of traverse.glsl. Mirrored
+// by src/render/index.rs (layout and budgets) and src/field/grid.rs.
+//
+// globals.grid: xyz the box's minimum corner, w the cell size h.
+// globals.grid_dims: xyz cells per axis, w lists per group (cells + 1).
+// Primitive i's support for the index is the sphere of radius
+// prims[i].c.y about its centre (R for compact kernels, the clipping
+// radius for Gaussians).
+#ifndef GRID_GLSL
+#define GRID_GLSL
+
+// More cells than this in a primitive's padded box: everywhere instead.
+const uint MAX_CELLS_PER_PRIMITIVE = 512u;
+
+// A primitive's box is padded by this fraction of a cell, so that the
+// traversal's rounding never misses the cell it looks in.
+const float CELL_PAD = 1e-3;
+
+uint grid_lists_per_group() {
+    return globals.grid_dims.w;
+}
+
+uint everywhere_list(uint group) {
+    return group * grid_lists_per_group() + grid_lists_per_group() - 1u;
+}
+
+uint cell_list(uint group, ivec3 cell) {
+    uvec3 n = globals.grid_dims.xyz;
+    return group * grid_lists_per_group() + uint(cell.x) + n.x * (uint(cell.y) + n.y * uint(cell.z));
+}
+
+// The cell holding x, clamped into the grid.
+ivec3 cell_of(vec3 x) {
+    vec3 c = floor((x - globals.grid.xyz) / globals.grid.w);
+    return clamp(ivec3(c), ivec3(0), ivec3(globals.grid_dims.xyz) - 1);
+}
+
+// Does primitive pr go to its group's everywhere list? Planes do, and any
+// primitive whose padded box may cover more than MAX_CELLS_PER_PRIMITIVE
+// cells wherever it is (a bound independent of its position, so that the
+// host can count these lists without reading the primitives back).
+bool in_everywhere_list(GpuPrimitive pr) {
+    if (pr.ids.x == PRIM_COMPACT_PLANE) return true;
+    float span = ceil(2.0 * (pr.c.y + CELL_PAD * globals.grid.w) / globals.grid.w) + 1.0;
+    return span * span * span > float(MAX_CELLS_PER_PRIMITIVE);
+}
+
+// The cells of a grid primitive's padded box.
+void primitive_cells(GpuPrimitive pr, out ivec3 lo, out ivec3 hi) {
+    float pad = pr.c.y + CELL_PAD * globals.grid.w;
+    lo = cell_of(pr.a.xyz - pad);
+    hi = cell_of(pr.a.xyz + pad);
+}
+
+#endif

@@ -1,0 +1,191 @@
+//! The spatial index, host side: the grid's geometry for a scene, the sizes
+//! of its buffers, the GPU build (shaders/index.comp, every frame), and the
+//! loop budget of a marching step that walks it (shaders/include/grid.glsl
+//! and traverse.glsl say what the lists hold and how they are walked).
+//!
+//! Why a uniform grid: it is built in seven short compute passes (a
+//! counting sort) with no tree to balance, its cells' lists keep each
+//! group's primitives together (the fold needs groups one after another),
+//! and a step walks a bounded number of cells (`window`), so the work of a
+//! step does not grow with the scene. Scenes whose primitives' sizes differ
+//! by orders of magnitude put the largest in per-group "everywhere" lists.
+//! docs/spatial-index.md has the measurements behind the choices.
+
+use anyhow::{Result, bail};
+use glam::DVec3;
+
+use crate::scene::{Kernel, Primitive, Scene};
+
+/// Scenes of more primitives than per-ray culling handles (64) march with
+/// the index.
+pub const INDEX_MIN_PRIMITIVES: usize = 65;
+/// As in grid.glsl.
+pub const MAX_CELLS_PER_PRIMITIVE: f64 = 512.0;
+pub const CELL_PAD: f64 = 1e-3;
+/// As in index.comp.
+pub const SCAN_BLOCK: usize = 256;
+/// The index build's top scan is one invocation's loop over the blocks.
+const MAX_LISTS: usize = 1 << 22;
+/// Cell size over the median index radius.
+pub const CELL_PER_RADIUS: f64 = 1.0;
+/// The longest candidate interval of a step, in cells.
+pub const WINDOW_CELLS: f64 = 4.0;
+/// The clipped tails of a group's Gaussians add up to at most this
+/// fraction of iso anywhere (see [`index_radius`]).
+pub const GAUSSIAN_CLIP_FRACTION: f64 = 1e-3;
+
+/// A primitive's radius for the index: its support for a compact kernel;
+/// for a Gaussian, the clipping radius ρ where `w e^{-s ρ²/r²}` falls to
+/// `GAUSSIAN_CLIP_FRACTION · iso / n`, `n` the Gaussians of its group. Each
+/// of them then adds less than `GAUSSIAN_CLIP_FRACTION · iso / n` beyond
+/// its ρ, so a group's sum loses less than `GAUSSIAN_CLIP_FRACTION · iso`
+/// at any point, however dense the scene (the bound needs no density). The
+/// rendered field is the clipped one; `None` for planes (not in the grid).
+pub fn index_radius(p: &Primitive, iso: f64, gaussians_in_group: usize) -> Option<f64> {
+    match *p {
+        Primitive::Point { kernel: Kernel::Compact { radius, .. }, .. } => Some(radius),
+        Primitive::Point { kernel: Kernel::Gaussian { r, s, weight }, .. } => {
+            let ratio = weight * gaussians_in_group.max(1) as f64 / (GAUSSIAN_CLIP_FRACTION * iso);
+            Some(if ratio <= 1.0 { 0.0 } else { r * (ratio.ln() / s).sqrt() })
+        }
+        Primitive::Plane { .. } => None,
+    }
+}
+
+/// Index radii of every primitive in GPU order (group by group).
+pub fn index_radii(scene: &Scene) -> Vec<Option<f64>> {
+    scene
+        .groups
+        .iter()
+        .flat_map(|g| {
+            let n = g.iter().filter(|p| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. })).count();
+            g.iter().map(move |p| index_radius(p, scene.iso, n))
+        })
+        .collect()
+}
+
+/// The grid of one pose of a scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridSpec {
+    pub origin: DVec3,
+    pub cell: f64,
+    pub dims: [u32; 3],
+    pub groups: usize,
+    /// Cells and one everywhere list per group.
+    pub lists_per_group: usize,
+    /// Entries the lists can hold at most, wherever the primitives are.
+    pub entry_capacity: usize,
+    /// Entries of the everywhere lists, all groups together.
+    pub everywhere: usize,
+    /// The longest candidate interval of a step.
+    pub window: f64,
+}
+
+/// Cells per axis a box of half-width `radius` (padded) can cover.
+fn span(radius: f64, cell: f64) -> f64 {
+    (2.0 * (radius + CELL_PAD * cell) / cell).ceil() + 1.0
+}
+
+impl GridSpec {
+    /// The grid for `scene` as posed, or `None` when it marches without
+    /// (few primitives).
+    pub fn for_scene(scene: &Scene) -> Option<GridSpec> {
+        let n = scene.primitive_count();
+        if n < INDEX_MIN_PRIMITIVES {
+            return None;
+        }
+        let radii = index_radii(scene);
+        let mut sorted: Vec<f64> = radii.iter().flatten().copied().filter(|r| *r > 0.0).collect();
+        sorted.sort_by(f64::total_cmp);
+        let median = sorted.get(sorted.len() / 2).copied().unwrap_or(1.0);
+        // The box: the scene's, grown to hold every clipping sphere.
+        let (mut lo, mut hi) = (scene.bounds.min, scene.bounds.max);
+        for (p, r) in scene.primitives().zip(&radii) {
+            if let (Primitive::Point { center, .. }, Some(r)) = (p, r) {
+                lo = lo.min(*center - DVec3::splat(*r));
+                hi = hi.max(*center + DVec3::splat(*r));
+            }
+        }
+        let extent = (hi - lo).max(DVec3::splat(1e-9 * median.max(1e-30)));
+        let groups = scene.groups.len();
+        let mut cell = CELL_PER_RADIUS * median;
+        // At most a few cells per primitive, and at most MAX_LISTS lists.
+        let max_cells = (8 * n).clamp(64, MAX_LISTS / groups.max(1) - 1) as f64;
+        let cells = |c: f64| (extent / c).ceil().max(DVec3::ONE);
+        while cells(cell).element_product() > max_cells {
+            cell *= 1.25;
+        }
+        let d = cells(cell);
+        let dims = [d.x as u32, d.y as u32, d.z as u32];
+        let lists_per_group = (d.element_product() as usize) + 1;
+        let (mut entry_capacity, mut everywhere) = (0, 0);
+        for r in &radii {
+            match r {
+                Some(r) if span(*r, cell).powi(3) <= MAX_CELLS_PER_PRIMITIVE => entry_capacity += span(*r, cell).powi(3) as usize,
+                _ => {
+                    entry_capacity += 1;
+                    everywhere += 1;
+                }
+            }
+        }
+        Some(GridSpec { origin: lo, cell, dims, groups, lists_per_group, entry_capacity, everywhere, window: WINDOW_CELLS * cell })
+    }
+
+    pub fn lists(&self) -> usize {
+        self.groups * self.lists_per_group
+    }
+
+    pub fn blocks(&self) -> usize {
+        self.lists().div_ceil(SCAN_BLOCK)
+    }
+
+    /// u32s of the three index buffers: list starts, entries, scratch.
+    pub fn buffer_words(&self) -> [usize; 3] {
+        [self.lists() + 1, self.entry_capacity.max(1), 1 + self.blocks() + self.lists()]
+    }
+
+    /// The most cells one interval query of length `window` walks.
+    fn cells_per_interval(&self) -> usize {
+        (3f64.sqrt() * self.window / self.cell).ceil() as usize + 4
+    }
+
+    /// Loop turns of one fold over the primitives along an interval (one
+    /// per entry, at least one per list walked), when no list holds more
+    /// than `longest` entries.
+    pub fn interval_iterations(&self, longest: usize) -> usize {
+        self.groups * (1 + self.cells_per_interval() * longest.max(1)) + self.everywhere
+    }
+
+    /// The same for a point query: its one cell.
+    pub fn point_iterations(&self, longest: usize) -> usize {
+        self.groups * (1 + longest.max(1)) + self.everywhere
+    }
+}
+
+/// What building the index cost and holds, for statistics.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct IndexStats {
+    /// GPU time of the last build.
+    pub build_ns: f64,
+    /// Entries in the lists (a primitive is in every cell it may touch).
+    pub entries: usize,
+    /// The longest list.
+    pub longest_list: usize,
+    /// Bytes of the index buffers over the primitives.
+    pub bytes_per_primitive: f64,
+    pub cells: usize,
+    pub cell_size: f64,
+}
+
+/// Fails when the index of `spec` cannot fit the device's storage buffers.
+pub fn check_fits(spec: &GridSpec, max_buffer_bytes: u64, source: &str) -> Result<()> {
+    let words = spec.buffer_words();
+    let need = words.iter().map(|w| 4 * *w as u64).max().unwrap_or(0);
+    if need > max_buffer_bytes {
+        bail!(
+            "{source}: the spatial index needs a buffer of {need} bytes ({} entries), more than the device's {max_buffer_bytes}",
+            spec.entry_capacity
+        );
+    }
+    Ok(())
+}
