@@ -99,30 +99,36 @@ float compact_slope(vec4 b, float d) {
     return abs(2.0 * d * dk_dq);
 }
 
-// The distance range (lo, hi) of a point primitive's centre from the
-// segment, and max |dd/dt| at its ends.
-vec3 point_distance_range(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
-    vec3 c = pr.a.xyz;
-    float tc = clamp(dot(c - o, u), ta, tb);
-    vec3 ca = o + ta * u - c;
-    vec3 cb = o + tb * u - c;
-    return vec3(length(o + tc * u - c), sqrt(max(dot(ca, ca), dot(cb, cb))), max(cos_along(ca, u), cos_along(cb, u)));
+// The least distance of a point primitive's centre from the segment.
+float point_distance_lo(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
+    float tc = clamp(dot(pr.a.xyz - o, u), ta, tb);
+    return length(o + tc * u - pr.a.xyz);
+}
+
+// The largest distance of the centre from the segment (at an end), and
+// max |dd/dt| at the ends. Only for a support that meets the segment.
+vec2 point_distance_hi(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
+    vec3 ca = o + ta * u - pr.a.xyz;
+    vec3 cb = o + tb * u - pr.a.xyz;
+    return vec2(sqrt(max(dot(ca, ca), dot(cb, cb))), max(cos_along(ca, u), cos_along(cb, u)));
 }
 
 float compact_point_lipschitz(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
-    vec3 r = point_distance_range(pr, o, u, ta, tb);
-    if (r.x >= pr.b.x) return 0.0;
+    float lo = point_distance_lo(pr, o, u, ta, tb);
+    if (lo >= pr.b.x) return 0.0;   // a support that misses the segment costs only this test
     g_evals += 1u;
-    return compact_slope(pr.b, clamp(pr.b.w, r.x, r.y)) * r.z;
+    vec2 hi = point_distance_hi(pr, o, u, ta, tb);
+    return compact_slope(pr.b, clamp(pr.b.w, lo, hi.x)) * hi.y;
 }
 
 float gaussian_point_lipschitz(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
-    vec3 r = point_distance_range(pr, o, u, ta, tb);
+    float lo = point_distance_lo(pr, o, u, ta, tb);
+    vec2 hi = point_distance_hi(pr, o, u, ta, tb);
     g_evals += 1u;
-    float d = clamp(pr.b.w, r.x, r.y);
+    float d = clamp(pr.b.w, lo, hi.x);
     float dk_dq;
     gaussian_kernel(pr.b, d * d, dk_dq);
-    return abs(2.0 * d * dk_dq) * r.z;
+    return abs(2.0 * d * dk_dq) * hi.y;
 }
 
 float compact_plane_lipschitz(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {

@@ -3,11 +3,11 @@
 //! fold: a cursor yields the primitives, each adds its terms to its group's
 //! sum, and the groups combine by max (Eq. 20).
 //!
-//! The cursor here is the flat list, group by group. The contract a spatial
-//! index must keep is the GPU's: it yields every primitive whose support
-//! meets the query, each once, and a group's primitives one after another
-//! (groups in any order); the fold closes a group's sum when the group
-//! changes.
+//! The cursor is the flat list, group by group, or for large fields the
+//! grid of `grid.rs`. The contract is the GPU's: it yields every primitive
+//! whose support meets the query, each once, and a group's primitives one
+//! after another (groups in any order); the fold closes a group's sum when
+//! the group changes.
 
 use std::marker::PhantomData;
 
@@ -18,7 +18,7 @@ use super::bounds::{Lin, Order, Taylor};
 use super::kinds::{PrimEval, PrimitiveKind};
 use super::quad::{QuadOptions, QuadSettings};
 use super::raa::Affine;
-use super::Field;
+use super::{Field, Query};
 use crate::method::Method;
 
 /// One evaluation as a fold: a group's sum starts at `zero`, each primitive
@@ -33,18 +33,26 @@ pub trait Evaluation {
 }
 
 impl Field {
-    /// The cursor: every primitive with its group index, group by group.
-    pub fn cursor(&self) -> impl Iterator<Item = (usize, &PrimEval)> {
-        self.groups.iter().enumerate().flat_map(|(g, prims)| prims.iter().map(move |p| (g, p)))
+    /// The cursor: the primitives `q` may meet with their group index,
+    /// group by group (all of them without a grid, or for `None`).
+    pub fn cursor(&self, q: Option<Query>) -> Box<dyn Iterator<Item = (usize, &PrimEval)> + '_> {
+        match (&self.grid, q) {
+            (Some(grid), Some(q)) => Box::new(grid.candidates(q).into_iter().map(move |i| {
+                let (g, k) = self.order[i as usize];
+                (g as usize, &self.groups[g as usize][k as usize])
+            })),
+            _ => Box::new(self.groups.iter().enumerate().flat_map(|(g, prims)| prims.iter().map(move |p| (g, p)))),
+        }
     }
 
-    /// Folds `e` over the primitives the cursor yields: sums within
-    /// groups, max across them.
-    pub fn fold<E: Evaluation>(&self, e: &mut E) -> E::Max {
+    /// Folds `e` over the primitives the cursor yields for `q`: sums within
+    /// groups, max across them. The first group is always folded in, so a
+    /// query that meets no primitive gets the empty sum.
+    pub fn fold<E: Evaluation>(&self, q: Option<Query>, e: &mut E) -> E::Max {
         let mut max = None;
         let mut group = 0;
         let mut sum = e.zero();
-        for (g, p) in self.cursor() {
+        for (g, p) in self.cursor(q) {
             if g != group {
                 max = Some(e.close(max, sum));
                 sum = e.zero();
@@ -83,11 +91,12 @@ impl<S: Copy, M, Z: Fn() -> S, A: FnMut(S, &dyn PrimitiveKind) -> S, C: FnMut(Op
 
 fn fold_with<S: Copy, M>(
     field: &Field,
+    q: Option<Query>,
     zero: impl Fn() -> S,
     add: impl FnMut(S, &dyn PrimitiveKind) -> S,
     close: impl FnMut(Option<M>, S) -> M,
 ) -> M {
-    field.fold(&mut Closures { zero, add, close, types: PhantomData })
+    field.fold(q, &mut Closures { zero, add, close, types: PhantomData })
 }
 
 /// The max of plain numbers.
@@ -98,13 +107,14 @@ fn max_f64(max: Option<f64>, s: f64) -> f64 {
 impl Field {
     /// `f(p)`: positive inside.
     pub fn value(&self, p: DVec3) -> f64 {
-        fold_with(self, || 0.0, |s, k| s + k.value(p), max_f64) - self.iso
+        fold_with(self, Some(Query::Point(p)), || 0.0, |s, k| s + k.value(p), max_f64) - self.iso
     }
 
     /// `f(p)` and its gradient (of the group that attains the max).
     pub fn value_gradient(&self, p: DVec3) -> (f64, DVec3) {
         let (v, grad) = fold_with(
             self,
+            Some(Query::Point(p)),
             || (0.0, DVec3::ZERO),
             |(v, g), k| {
                 let (kv, kg) = k.value_gradient(p);
@@ -121,12 +131,12 @@ impl Field {
     /// Global Lipschitz constant of `f` (Eq. 10): for a max of sums, the
     /// largest group sum of per-kernel peaks.
     pub fn lipschitz(&self) -> f64 {
-        fold_with(self, || 0.0, |s, k| s + k.lipschitz(), max_f64).max(0.0)
+        fold_with(self, None, || 0.0, |s, k| s + k.lipschitz(), max_f64).max(0.0)
     }
 
     /// Segment tracing's Lipschitz bound on `[ta, tb]` along the ray.
     pub fn segment_lipschitz(&self, o: DVec3, u: DVec3, ta: f64, tb: f64) -> f64 {
-        fold_with(self, || 0.0, |s, k| s + k.segment_slope(o, u, ta, tb), max_f64).max(0.0)
+        fold_with(self, Some(Query::Segment { o, u, t0: ta, t1: tb }), || 0.0, |s, k| s + k.segment_slope(o, u, ta, tb), max_f64).max(0.0)
     }
 }
 
@@ -137,6 +147,7 @@ pub fn field_taylor(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64, order: 
     let quadratic = order == Order::Quadratic;
     let mut b = fold_with(
         field,
+        Some(Query::Segment { o, u, t0, t1 }),
         Taylor::default,
         |s, k| {
             let k = k.taylor(o, u, t0, t1, order, extension);
@@ -172,6 +183,7 @@ pub fn field_linear(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64) -> Boun
     let len = t1 - t0;
     let mut b = fold_with(
         field,
+        Some(Query::Segment { o, u, t0, t1 }),
         || Lin { v: 0.0, lo: 0.0, hi: 0.0 },
         |s, k| {
             let k = k.linear(o, u, t0, len);
@@ -213,7 +225,7 @@ impl Evaluation for Quadratic {
 /// within groups, the quadratic maximum of Appendix C across them.
 pub fn field_quadratic(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64, opts: QuadOptions) -> Bound {
     let mut e = Quadratic { o, u, t0, len: t1 - t0, opts };
-    let mut b = field.fold(&mut e);
+    let mut b = field.fold(Some(Query::Segment { o, u, t0, t1 }), &mut e);
     b.v -= field.iso;
     b.t_valid = t0 + e.len;
     b
@@ -224,6 +236,7 @@ pub fn field_quadratic(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64, opts
 pub fn field_raa(field: &Field, o: DVec3, u: DVec3, ta: f64, tb: f64) -> (f64, f64) {
     let (lo, hi) = fold_with(
         field,
+        Some(Query::Segment { o, u, t0: ta, t1: tb }),
         || Affine::ZERO,
         |s, k| s.add(k.raa(o, u, ta, tb)),
         |max: Option<(f64, f64)>, s| {

@@ -4,13 +4,17 @@
 pub mod bound;
 pub mod bounds;
 pub mod fold;
+pub mod grid;
 pub mod kinds;
 pub mod march;
 pub mod quad;
 pub mod raa;
 pub mod reference;
 
+pub use grid::Query;
 pub use kinds::{PrimEval, PrimitiveKind};
+
+use grid::Grid;
 
 use glam::DVec3;
 
@@ -108,11 +112,24 @@ impl KernelEval {
 pub struct Field {
     pub groups: Vec<Vec<PrimEval>>,
     pub iso: f64,
+    /// Every primitive's (group, position in the group), group by group.
+    order: Vec<(u32, u32)>,
+    /// The spatial index of large fields (see `grid.rs`).
+    grid: Option<Grid>,
 }
 
 impl Field {
     pub fn new(scene: &Scene) -> Field {
-        Field { groups: scene.groups.iter().map(|g| g.iter().map(PrimEval::new).collect()).collect(), iso: scene.iso }
+        let groups: Vec<Vec<PrimEval>> = scene.groups.iter().map(|g| g.iter().map(PrimEval::new).collect()).collect();
+        let order: Vec<(u32, u32)> =
+            groups.iter().enumerate().flat_map(|(g, prims)| (0..prims.len()).map(move |i| (g as u32, i as u32))).collect();
+        let grid = Grid::new(&groups.iter().flatten().collect::<Vec<_>>());
+        Field { groups, iso: scene.iso, order, grid }
+    }
+
+    /// The grid's cell size, when the field has a grid.
+    pub fn grid_cell(&self) -> Option<f64> {
+        self.grid.as_ref().map(Grid::cell_size)
     }
 }
 

@@ -52,7 +52,9 @@ pub fn crossings(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64, opts: Refe
             return out;
         }
     }
-    let mut window = t1 - t0;
+    // With a grid, windows of a few cells keep each step's work local.
+    let cap = field.grid_cell().map_or(f64::INFINITY, |c| super::grid::REFERENCE_WINDOW_CELLS * c);
+    let mut window = (t1 - t0).min(cap);
     while t < t1 {
         let tb = (t + window).min(t1);
         let lambda = field.segment_lipschitz(o, u, t, tb);
@@ -68,7 +70,7 @@ pub fn crossings(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64, opts: Refe
                 return out;
             }
         }
-        window = (2.0 * (t_next - t)).max(opts.spacing);
+        window = (2.0 * (t_next - t)).max(opts.spacing).min(cap);
         t = t_next;
         f = f_next;
     }

@@ -91,7 +91,7 @@ impl GridSpec {
     /// (few primitives).
     pub fn for_scene(scene: &Scene) -> Option<GridSpec> {
         let n = scene.primitive_count();
-        if n < INDEX_MIN_PRIMITIVES {
+        if n < INDEX_MIN_PRIMITIVES || std::env::var_os("ISOMARCH_FLAT").is_some() {
             return None;
         }
         let radii = index_radii(scene);

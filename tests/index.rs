@@ -1,0 +1,138 @@
+//! The spatial index (scenes of more than 64 primitives): no missed or false
+//! crossing against the f64 reference on random scenes of 1,000 and 20,000
+//! primitives, every method, opaque and transparent, in one group and as a
+//! max of groups; the index rebuilt for moved primitives; the index's
+//! statistics. The reference walks its own grid (src/field/grid.rs), so
+//! the two indices are independent.
+
+mod common;
+
+use common::*;
+use glam::DVec3;
+use isomarch::bench::{accuracy, accuracy_all, reference_crossings, reference_hits};
+use isomarch::layout::{FLAG_OUT_OF_STEPS, GpuRay, GpuResult};
+use isomarch::render::rays::protocol_rays;
+use isomarch::render::{MarchOptions, Renderer};
+use isomarch::scene::{Scene, Transparency};
+use isomarch::Method;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+/// `n` compact blobs (radius 0.8 to 1.2) at a fixed density (mean spacing
+/// 1.6) in a cube, split into `groups` groups combined by max.
+fn particles(n: usize, groups: usize, seed: u64) -> Scene {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let side = 1.6 * (n as f64).cbrt();
+    let mut g: Vec<Vec<_>> = vec![Vec::new(); groups];
+    for i in 0..n {
+        let c = DVec3::new(rng.random_range(0.0..side), rng.random_range(0.0..side), rng.random_range(0.0..side)) - DVec3::splat(side / 2.0);
+        g[i % groups].push(compact(c, rng.random_range(0.8..1.2)));
+    }
+    let mut s = scene(g, 0.5, Method::QuadraticTaylor, 1.0);
+    s.marching.min_step = 1e-4 * s.min_radius();
+    s
+}
+
+fn assert_finite(results: &[GpuResult], what: &str) {
+    for r in results {
+        assert!(r.hit.iter().chain(&r.color).all(|x| x.is_finite()), "{what}: non-finite result {r:?}");
+    }
+}
+
+/// Every method's first hits (opaque) and every Algorithm 1 method's
+/// crossings (transparent; sphere tracing's global bound is too small a
+/// step for every crossing of a large scene) on `rays` agree with the
+/// reference: no miss, no false hit, within the refinement tolerance plus
+/// f32 rounding.
+fn check_scene(s: &Scene, rays: &[GpuRay], what: &str) {
+    let ctx = gpu();
+    let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
+    let mut renderer = Renderer::new(&ctx, s).unwrap();
+    let stats = renderer.index_stats().expect("a scene of more than 64 primitives marches with the index");
+    assert!(stats.entries >= s.primitive_count() && stats.longest_list > 0, "{what}: {stats:?}");
+    let first = reference_hits(s, rays, false);
+    let hits = first.iter().filter(|h| h.is_some()).count();
+    assert!(4 * hits >= rays.len(), "{what}: only {hits} of {} rays hit: too few to test", rays.len());
+    let opaque = MarchOptions { shade: false, ..MarchOptions::for_scene(s) };
+    for &method in Method::ALL {
+        let out = renderer.march(method, opaque, rays, |_| {}).unwrap();
+        assert_finite(&out.results, &format!("{what} {method}"));
+        // Sphere tracing's global Lipschitz bound (Eq. 10) sums every
+        // kernel's peak slope, so its steps shrink with the scene: its rays
+        // may run out of steps (flagged, and left out); no other method's.
+        let finished: Vec<usize> = (0..rays.len()).filter(|&i| out.results[i].counts[3] & FLAG_OUT_OF_STEPS == 0).collect();
+        if method != Method::Sphere {
+            assert_eq!(finished.len(), rays.len(), "{what} {method}: rays ran out of steps");
+        }
+        assert!(2 * finished.len() >= rays.len(), "{what} {method}: most rays ran out of steps");
+        let results: Vec<GpuResult> = finished.iter().map(|&i| out.results[i]).collect();
+        let expected: Vec<Option<f64>> = finished.iter().map(|&i| first[i]).collect();
+        let acc = accuracy(&results, &expected, tol, tol);
+        assert!(acc.misses + acc.false_hits == 0, "{what} {method}: {} missed, {} false; max error {:e}", acc.misses, acc.false_hits, acc.max_abs_error);
+    }
+    let all = reference_crossings(s, rays, false, false);
+    let transparent = MarchOptions { transparent: true, ..opaque };
+    for &method in Method::ALL.iter().filter(|m| !matches!(m, Method::LinearBisection | Method::Raa | Method::Sphere)) {
+        let out = renderer.march(method, transparent, rays, |_| {}).unwrap();
+        assert_finite(&out.results, &format!("{what} {method} transparent"));
+        let acc = accuracy_all(&out.crossings, &all, tol, tol);
+        assert!(acc.misses + acc.false_hits == 0, "{what} {method} transparent: {} missed, {} false crossings", acc.misses, acc.false_hits);
+    }
+    assert_no_validation(&ctx);
+}
+
+#[test]
+fn a_thousand_primitives_every_method_opaque_and_transparent() {
+    for groups in [1, 3] {
+        let s = particles(1000, groups, 7 + groups as u64);
+        check_scene(&s, &protocol_rays(&s.bounds, 192, 3), &format!("1,000 primitives in {groups} groups"));
+    }
+}
+
+#[test]
+fn twenty_thousand_primitives_every_method_opaque_and_transparent() {
+    let s = particles(20_000, 1, 20);
+    check_scene(&s, &protocol_rays(&s.bounds, 48, 4), "20,000 primitives");
+}
+
+#[test]
+fn moved_primitives_rebuild_the_index() {
+    let ctx = gpu();
+    let s = particles(1000, 1, 11);
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    // Every blob moved by up to one radius: the old lists would miss them.
+    let mut rng = Pcg64Mcg::seed_from_u64(5);
+    let mut moved = s.clone();
+    for p in moved.groups.iter_mut().flatten() {
+        if let isomarch::scene::Primitive::Point { center, .. } = p {
+            *center += DVec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+        }
+    }
+    renderer.set_scene(&moved).unwrap();
+    let rays = protocol_rays(&s.bounds, 256, 8);
+    let reference = reference_hits(&moved, &rays, false);
+    let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
+    for method in [Method::Segment, Method::QuadraticTaylor] {
+        let out = renderer.march(method, MarchOptions { shade: false, ..MarchOptions::for_scene(&moved) }, &rays, |_| {}).unwrap();
+        let acc = accuracy(&out.results, &reference, tol, tol);
+        assert!(acc.misses + acc.false_hits == 0, "{method} after the move: {} missed, {} false", acc.misses, acc.false_hits);
+    }
+    assert_no_validation(&ctx);
+}
+
+#[test]
+fn transparency_from_the_scene_file_marches_with_the_index() {
+    // The scene's own transparency (not only the options) goes through.
+    let mut s = particles(300, 1, 12);
+    s.transparency = Some(Transparency { opacity: 0.3, absorption: DVec3::splat(0.1), ior: None, max_depth: 1, reflectivity: 1.0 });
+    let rays = protocol_rays(&s.bounds, 128, 9);
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    let out = renderer.march(Method::Quadratic, MarchOptions::for_scene(&s), &rays, |_| {}).unwrap();
+    let all = reference_crossings(&s, &rays, false, false);
+    let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
+    let acc = accuracy_all(&out.crossings, &all, tol, tol);
+    assert!(all.iter().map(Vec::len).sum::<usize>() > 100, "too few crossings to test");
+    assert!(acc.misses + acc.false_hits == 0, "{} missed, {} false crossings", acc.misses, acc.false_hits);
+    assert_no_validation(&ctx);
+}
