@@ -1,0 +1,139 @@
+//! `isomarch generate particles` through the binary: seeded output is
+//! byte-identical, the scene loads with the ordinary loader and its bounds
+//! hold every support, bad arguments are refused in one line.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use common::{bin, scratch};
+use glam::DVec3;
+use isomarch::scene::{Kernel, Primitive, Scene};
+
+fn generate(args: &[&str], out: &Path) -> Output {
+    Command::new(bin()).args(["generate", "particles"]).args(args).arg("-o").arg(out).output().unwrap()
+}
+
+fn assert_ok(out: &Output) -> String {
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "generate failed ({:?}):\n{stdout}\n{stderr}", out.status);
+    assert!(stderr.is_empty(), "generate wrote to stderr: {stderr}");
+    assert_eq!(stdout.lines().count(), 1, "one summary line, got: {stdout}");
+    stdout
+}
+
+/// Every primitive's support (a Gaussian's: where it exceeds 1e-3 iso, as
+/// the loader measures it) lies inside the scene's bounds.
+fn assert_bounds_hold_supports(scene: &Scene) {
+    for p in scene.primitives() {
+        let Primitive::Point { center, kernel } = p else { panic!("only points are generated") };
+        let reach = DVec3::splat(kernel.cutoff(scene.iso));
+        assert!(
+            (center - reach).cmpge(scene.bounds.min).all() && (center + reach).cmple(scene.bounds.max).all(),
+            "support of {center} (reach {}) leaves the bounds {:?}",
+            reach.x,
+            scene.bounds
+        );
+    }
+}
+
+#[test]
+fn the_same_seed_writes_the_same_bytes() {
+    let dir = scratch("generate-seed");
+    let (a, b, c) = (dir.join("a.ron"), dir.join("b.ron"), dir.join("c.ron"));
+    for (path, seed) in [(&a, "7"), (&b, "7"), (&c, "8")] {
+        assert_ok(&generate(&["--count", "300", "--seed", seed, "--motion"], path));
+    }
+    let (a, b, c) = (std::fs::read(a).unwrap(), std::fs::read(b).unwrap(), std::fs::read(c).unwrap());
+    assert_eq!(a, b, "seed 7 twice gave different files");
+    assert_ne!(a, c, "seeds 7 and 8 gave the same file");
+    // Written atomically: no temporary file is left beside it.
+    let names: Vec<String> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    assert!(names.iter().all(|n| n.ends_with(".ron") && !n.starts_with('.')), "{names:?}");
+}
+
+#[test]
+fn generated_scenes_load_with_every_support_in_bounds() {
+    let dir = scratch("generate-load");
+    for (flags, kernel) in [(&[][..], "Compact"), (&["--gaussian"][..], "Gaussian")] {
+        let path = dir.join(format!("{kernel}.ron"));
+        let mut args = vec!["--count", "1000", "--seed", "3"];
+        args.extend_from_slice(flags);
+        let summary = assert_ok(&generate(&args, &path));
+        assert!(summary.contains("1000"), "{summary}");
+        let scene = Scene::load(&path).unwrap();
+        assert_eq!(scene.primitive_count(), 1000);
+        assert_eq!(scene.groups.len(), 1);
+        assert!(scene.animation.is_static());
+        assert_eq!(scene.marching.method, isomarch::Method::QuadraticTaylor);
+        assert_eq!(scene.iso, 0.5);
+        for p in scene.primitives() {
+            let matches = match p {
+                Primitive::Point { kernel: Kernel::Compact { radius, .. }, .. } => kernel == "Compact" && *radius == 1.0,
+                Primitive::Point { kernel: Kernel::Gaussian { r, s, .. }, .. } => kernel == "Gaussian" && *r == 0.5 && *s == 2.0,
+                Primitive::Plane { .. } => false,
+            };
+            assert!(matches, "{kernel} scene holds {p:?}");
+        }
+        assert_bounds_hold_supports(&scene);
+        // The density is fixed: the centres fill a cube of side 1.5 N^(1/3).
+        let side = isomarch::generate::SPACING * 1000f64.cbrt();
+        for p in scene.primitives() {
+            let Primitive::Point { center, .. } = p else { unreachable!() };
+            assert!(center.abs().max_element() <= 0.5 * side + 1e-6, "{center} outside the cube of side {side}");
+        }
+        // The camera sees the whole box: every corner is inside the view.
+        let cam = &scene.camera;
+        let forward = (cam.target - cam.eye).normalize();
+        let half = (0.5 * cam.fov_y_deg.to_radians()).tan();
+        for i in 0..8 {
+            let b = scene.bounds;
+            let corner = DVec3::new(
+                if i & 1 == 0 { b.min.x } else { b.max.x },
+                if i & 2 == 0 { b.min.y } else { b.max.y },
+                if i & 4 == 0 { b.min.z } else { b.max.z },
+            );
+            let to = corner - cam.eye;
+            let depth = to.dot(forward);
+            assert!(depth > 0.0 && (to - depth * forward).length() / depth < half, "corner {corner} is out of view");
+        }
+    }
+}
+
+#[test]
+fn moving_particles_stay_inside_their_bounds() {
+    let dir = scratch("generate-motion");
+    let path = dir.join("moving.ron");
+    assert_ok(&generate(&["--count", "200", "--seed", "5", "--motion"], &path));
+    let scene = Scene::load(&path).unwrap();
+    assert_eq!(scene.animation.primitives.len(), 200, "every centre moves");
+    assert!(scene.bounds_explicit, "the box stays put while the blobs move");
+    for t in [0.0, 0.37, 1.0, 1.9, 2.6, 3.3] {
+        let posed = scene.at_time(t);
+        assert_eq!(posed.bounds, scene.bounds);
+        assert_bounds_hold_supports(&posed);
+    }
+    assert_ne!(scene.at_time(0.5).groups, scene.at_time(0.0).groups, "nothing moved");
+}
+
+#[test]
+fn bad_arguments_are_refused_in_one_line() {
+    let dir = scratch("generate-refuse");
+    for (args, name, expect) in [
+        (&["--count", "0"][..], "zero.ron", "--count"),
+        (&["--count", "10"][..], "scene.txt", ".ron"),
+        (&["--count", "10"][..], "scene", ".ron"),
+    ] {
+        let path = dir.join(name);
+        let out = generate(args, &path);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} -o {name} was accepted");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
+        assert!(stderr.starts_with("error: ") && stderr.contains(expect), "{stderr}");
+        assert!(out.stdout.is_empty());
+        assert!(!path.exists(), "{name} was written");
+    }
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
+}
