@@ -137,3 +137,77 @@ fn bad_arguments_are_refused_in_one_line() {
     }
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
 }
+
+fn run_ok(args: &[&str]) -> Output {
+    let out = Command::new(bin()).args(args).args(["--validation", "--timeout", "300"]).output().unwrap();
+    assert!(out.status.success(), "{args:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    out
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The index's fields hold sane values for a scene of `primitives`.
+fn assert_sane_index(index: &serde_json::Value, primitives: u64) {
+    let num = |k: &str| index[k].as_f64().unwrap_or_else(|| panic!("index.{k} missing or not a number: {index}"));
+    assert!(num("entries") >= primitives as f64, "every blob is in at least one cell: {index}");
+    assert!(num("build_ns") > 0.0, "{index}");
+    assert!(num("longest_list") >= 1.0 && num("longest_list") <= num("entries"), "{index}");
+    assert!(num("cells") >= 1.0 && num("cell_size") > 0.0 && num("bytes_per_primitive") > 0.0, "{index}");
+}
+
+#[test]
+fn render_and_bench_report_the_spatial_index() {
+    let dir = scratch("generate-stats");
+    let scene = dir.join("p1000.ron");
+    assert_ok(&generate(&["--count", "1000", "--seed", "2"], &scene));
+    let (s, stats) = (scene.to_str().unwrap(), dir.join("p1000.json"));
+    run_ok(&["render", s, "--size", "48x48", "-o", dir.join("p.png").to_str().unwrap(), "--stats", stats.to_str().unwrap()]);
+    assert_sane_index(&json(&stats)["index"], 1000);
+
+    let bench = dir.join("bench.json");
+    let out = run_ok(&["bench", s, "--methods", "quadratic-taylor", "--rays", "256", "--json", bench.to_str().unwrap()]);
+    assert_sane_index(&json(&bench)["index"], 1000);
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(table.contains("Spatial index:") && table.contains("entries"), "no index footer:\n{table}");
+
+    // fig10's 36 blobs march without an index: none reported.
+    let fig10 = common::repo_root().join("scenes/fig10.ron");
+    let stats = dir.join("fig10.json");
+    run_ok(&["render", fig10.to_str().unwrap(), "--size", "32x32", "-o", dir.join("f.png").to_str().unwrap(), "--stats", stats.to_str().unwrap()]);
+    let v = json(&stats);
+    assert!(v.get("index").is_some_and(serde_json::Value::is_null), "fig10 reports an index: {v}");
+    assert!(v["steps_per_ray"].as_f64().is_some(), "{v}");
+}
+
+/// `index_build_ms` of a batch's CSV, one entry per frame.
+fn index_column(csv: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let at = header.iter().position(|h| *h == "index_build_ms").unwrap_or_else(|| panic!("no index_build_ms column: {header:?}"));
+    // The file column is quoted and holds no comma here.
+    lines.map(|l| l.split(',').nth(at).unwrap_or_else(|| panic!("short row {l}")).to_string()).collect()
+}
+
+#[test]
+fn batch_frames_log_each_index_build() {
+    let dir = scratch("generate-batch");
+    let moving = dir.join("moving.ron");
+    assert_ok(&generate(&["--count", "150", "--seed", "4", "--motion"], &moving));
+    let csv = dir.join("moving.csv");
+    let pattern = dir.join("m_####.png");
+    run_ok(&["render", moving.to_str().unwrap(), "--size", "24x24", "--frames", "0..3", "-o", pattern.to_str().unwrap(), "--csv", csv.to_str().unwrap()]);
+    let builds = index_column(&csv);
+    assert_eq!(builds.len(), 3);
+    for b in &builds {
+        assert!(b.parse::<f64>().is_ok_and(|ms| ms > 0.0), "an animated scene rebuilds its index every frame: {builds:?}");
+    }
+    // Without an index the column is empty.
+    let csv = dir.join("fig10.csv");
+    let pattern = dir.join("f_####.png");
+    let fig10 = common::repo_root().join("scenes/fig10.ron");
+    run_ok(&["render", fig10.to_str().unwrap(), "--size", "16x16", "--frames", "0..2", "-o", pattern.to_str().unwrap(), "--csv", csv.to_str().unwrap()]);
+    assert_eq!(index_column(&csv), vec![String::new(), String::new()]);
+}
