@@ -218,7 +218,7 @@ pub fn run(
     }
     let mut log = std::fs::OpenOptions::new().create(true).append(true).open(csv).with_context(|| format!("opening {}", csv.display()))?;
     if new_csv {
-        writeln!(log, "frame,time_s,file,width,height,method,steps_per_ray,evals_per_ray,hit_rate,gpu_ms,wall_ms")?;
+        writeln!(log, "frame,time_s,file,width,height,method,steps_per_ray,evals_per_ray,hit_rate,gpu_ms,wall_ms,index_build_ms")?;
     }
     let bar = indicatif::ProgressBar::new(todo.len() as u64);
     bar.set_style(
@@ -235,6 +235,10 @@ pub fn run(
     let (mut rays, mut pixels) = camera_rays(&still.camera, job.width, job.height, &still.bounds);
     // Posing moves primitives and the camera, not the marching settings.
     let options = MarchOptions::for_scene(&still);
+    // Whether the index was built for the frame about to be marched: the
+    // first frame's is built with the renderer, an animated scene's again
+    // for every frame; a static scene's later frames reuse the first's.
+    let mut index_built = true;
     for (frame, path) in todo {
         if stop.load(Ordering::SeqCst) {
             summary.interrupted = true;
@@ -245,15 +249,25 @@ pub fn run(
             // The scene at this frame's time: primitives, camera, bounds.
             let posed = job.scene.at_time(frame as f64 / fps).recentred_on_camera();
             renderer.set_scene(&posed)?;
+            index_built = true;
             (rays, pixels) = camera_rays(&posed.camera, job.width, job.height, &posed.bounds);
         }
         let out = crate::render::offscreen::march_frame(&mut renderer, job.method, options, &rays)?;
         let image = crate::output::Frame::from_results(job.width, job.height, &out.results, &pixels);
         write_atomic(&path, &png_bytes(&image.shaded())?)?;
         let stats = crate::render::offscreen::pixel_stats(&out, &pixels);
+        // GPU time of this frame's index build: 0 where a static scene
+        // reuses the first frame's, empty without an index (or without
+        // GPU timestamps).
+        let built = std::mem::take(&mut index_built);
+        let index_ms = match renderer.index_stats() {
+            Some(_) if !built => "0".to_string(),
+            Some(i) if i.build_ns.is_finite() => format!("{:.3}", i.build_ns * 1e-6),
+            _ => String::new(),
+        };
         writeln!(
             log,
-            "{frame},{:.6},{},{},{},{},{:.4},{:.2},{:.5},{},{:.1}",
+            "{frame},{:.6},{},{},{},{},{:.4},{:.2},{:.5},{},{:.1},{index_ms}",
             frame as f64 / fps,
             format!("\"{}\"", path.display().to_string().replace('"', "\"\"")),
             job.width,

@@ -17,6 +17,7 @@ use crate::layout::{FLAG_HIT, GpuResult, GpuRay};
 use crate::method::Method;
 use crate::output::MarchStats;
 use crate::render::rays::{Ray, protocol_rays};
+use crate::render::index::IndexStats;
 use crate::render::{MarchOptions, Renderer};
 use crate::scene::{Kernel, Primitive, Scene};
 
@@ -114,6 +115,10 @@ pub struct BenchReport {
     /// false-hit rates are then per reference crossing).
     pub reference_crossings: Option<f64>,
     pub methods: Vec<MethodReport>,
+    /// The spatial index every method walked (`null` in JSON for scenes
+    /// of at most 64 primitives, which march without one); built once,
+    /// the scene being posed at time 0.
+    pub index: Option<IndexStats>,
 }
 
 fn progress(len: u64, what: &str) -> ProgressBar {
@@ -263,6 +268,7 @@ pub fn run(
         reference_hit_rate: ref_hits as f64 / rays.max(1) as f64,
         reference_crossings: transparent.then(|| reference.iter().map(Vec::len).sum::<usize>() as f64 / rays.max(1) as f64),
         methods: reports,
+        index: renderer.index_stats(),
     })
 }
 
@@ -377,6 +383,9 @@ pub fn markdown(report: &BenchReport) -> String {
             m.time_ratio.map_or("n/a".into(), |r| format!("{r:.3}x")),
         ));
     }
+    if let Some(i) = &report.index {
+        s.push_str(&format!("\n{}\n", index_line(i)));
+    }
     let mut first = true;
     for m in report.methods.iter().filter(|m| m.validity_kept.is_some()) {
         s.push_str(if std::mem::take(&mut first) { "\n" } else { "" });
@@ -388,4 +397,13 @@ pub fn markdown(report: &BenchReport) -> String {
         ));
     }
     s
+}
+
+/// The spatial index in one line, for the footer of `bench`'s table.
+pub fn index_line(i: &IndexStats) -> String {
+    let build = if i.build_ns.is_finite() { format!("{:.3} ms", i.build_ns * 1e-6) } else { "n/a (no GPU timestamps)".into() };
+    format!(
+        "Spatial index: {} cells of size {:.3}, {} entries (longest list {}), {:.1} bytes per primitive; GPU build {build} per frame",
+        i.cells, i.cell_size, i.entries, i.longest_list, i.bytes_per_primitive
+    )
 }

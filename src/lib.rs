@@ -11,6 +11,7 @@
 pub mod batch;
 pub mod bench;
 pub mod field;
+pub mod generate;
 pub mod gpu;
 pub mod layout;
 pub mod method;

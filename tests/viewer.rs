@@ -99,6 +99,34 @@ fn the_viewer_plays_the_refracting_fig16() {
     assert!(colours(&shot, (82, 64)) > 50, "the presented image is nearly uniform");
 }
 
+#[test]
+fn the_viewer_plays_ten_thousand_moving_blobs() {
+    // Issue 13: an animated scene of 10,000 moving primitives, its spatial
+    // index rebuilt for every frame, played under Xvfb.
+    let dir = scratch("viewer-particles");
+    let scene = dir.join("particles.ron");
+    let generated = Command::new(bin())
+        .args(["generate", "particles", "--count", "10000", "--seed", "1", "--motion", "-o"])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(generated.status.success(), "generate failed:\n{}", String::from_utf8_lossy(&generated.stderr));
+    let x = Xvfb::start();
+    let mut shots = Vec::new();
+    // Two starting times: the blobs move between them.
+    for time in ["0", "1.5"] {
+        let shot = dir.join(format!("particles-{time}.png"));
+        let out = view(
+            &x,
+            &[scene.to_str().unwrap(), "--size", "64x48", "--time", time, "--exit-after", "6", "--screenshot", shot.to_str().unwrap()],
+        );
+        assert_clean(&out, 6);
+        assert!(colours(&shot, (64, 48)) > 50, "the presented image is nearly uniform");
+        shots.push(image::open(&shot).unwrap().to_rgb8());
+    }
+    assert_ne!(shots[0], shots[1], "the blobs did not move between t = 0 and t = 1.5 s");
+}
+
 /// Runs xdotool on the test's display.
 fn xdotool(x: &Xvfb, args: &[&str]) -> Output {
     Command::new("xdotool")

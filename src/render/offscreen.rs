@@ -7,6 +7,7 @@ use std::time::Duration;
 use anyhow::Result;
 use serde::Serialize;
 
+use super::index::IndexStats;
 use super::{MarchOptions, Renderer};
 use super::rays::camera_rays;
 use crate::gpu::Context;
@@ -60,16 +61,24 @@ pub struct RenderStats {
     pub height: u32,
     #[serde(flatten)]
     pub march: MarchStats,
+    /// The spatial index the frame was marched with (`null` in JSON for
+    /// scenes of at most 64 primitives, which march without one).
+    pub index: Option<IndexStats>,
 }
 
 /// Marches the job's camera rays and returns the frame.
 pub fn render_frame(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Frame, MarchStats)> {
+    render_frame_indexed(ctx, job).map(|(frame, stats, _)| (frame, stats))
+}
+
+/// [`render_frame`], and what the build of the spatial index made.
+pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Frame, MarchStats, Option<IndexStats>)> {
     let scene = job.scene.recentred_on_camera();
     let mut renderer = Renderer::new(ctx, &scene)?;
     renderer.timeout = job.timeout;
     let (rays, pixels) = camera_rays(&scene.camera, job.width, job.height, &scene.bounds);
     let out = march_frame(&mut renderer, job.method, MarchOptions::for_scene(&scene), &rays)?;
-    Ok((Frame::from_results(job.width, job.height, &out.results, &pixels), pixel_stats(&out, &pixels)))
+    Ok((Frame::from_results(job.width, job.height, &out.results, &pixels), pixel_stats(&out, &pixels), renderer.index_stats()))
 }
 
 /// Statistics of a frame's march over its pixels (not the padding rays
@@ -113,7 +122,7 @@ pub fn march_frame(
 /// Renders and writes every requested file. All files are encoded before
 /// the first is written, and each is written atomically.
 pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStats> {
-    let (frame, march) = render_frame(ctx, job)?;
+    let (frame, march, index) = render_frame_indexed(ctx, job)?;
     let stats = RenderStats {
         scene: job.scene.source.clone(),
         method: job.method.to_string(),
@@ -121,6 +130,7 @@ pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStat
         width: job.width,
         height: job.height,
         march,
+        index,
     };
     let mut files = vec![(job.output.clone(), output::png_bytes(&frame.shaded())?)];
     if let Some(path) = &job.heatmap {
