@@ -26,9 +26,14 @@ pub const CELL_PAD: f64 = 1e-3;
 pub const SCAN_BLOCK: usize = 256;
 /// The index build's top scan is one invocation's loop over the blocks.
 const MAX_LISTS: usize = 1 << 22;
-/// Cell size over the median index radius.
+/// Cell size over the median index radius: a cell of side h holds about
+/// `density (h + 2ρ)³` entries and a ray crosses `1/h` cells per unit of
+/// length, so the entries a ray visits per unit of length, `density (h +
+/// 2ρ)³ / h`, are least at h = ρ.
 pub const CELL_PER_RADIUS: f64 = 1.0;
-/// The longest candidate interval of a step, in cells.
+/// The longest candidate interval of a step, in cells (measured: 2 and 4
+/// within noise of each other on the particle sweep, 8 slower;
+/// docs/spatial-index.md).
 pub const WINDOW_CELLS: f64 = 4.0;
 /// The clipped tails of a group's Gaussians add up to at most this
 /// fraction of iso anywhere (see [`index_radius`]).
@@ -91,7 +96,9 @@ impl GridSpec {
     /// (few primitives).
     pub fn for_scene(scene: &Scene) -> Option<GridSpec> {
         let n = scene.primitive_count();
-        if n < INDEX_MIN_PRIMITIVES || std::env::var_os("ISOMARCH_FLAT").is_some() {
+        // ISOMARCH_INDEX=off marches without it (as far as the loop budget
+        // allows), to measure what it buys.
+        if n < INDEX_MIN_PRIMITIVES || std::env::var("ISOMARCH_INDEX").is_ok_and(|v| v == "off") {
             return None;
         }
         let radii = index_radii(scene);
