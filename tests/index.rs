@@ -136,3 +136,46 @@ fn transparency_from_the_scene_file_marches_with_the_index() {
     assert!(acc.misses + acc.false_hits == 0, "{} missed, {} false crossings", acc.misses, acc.false_hits);
     assert_no_validation(&ctx);
 }
+
+/// Gaussians are clipped with the index (docs/spatial-index.md): the
+/// clipped field is within ε = 1e-3·iso of the true one everywhere, so a
+/// crossing moves by at most about ε / |f'(t)| along its ray. Careless
+/// clipping (too small a radius, the paper's Figure 14) leaves seams where
+/// the clip spheres cut the surface: hits far from the unclipped f64
+/// reference. Every camera ray that hits a surface not grazed by it must
+/// be within twice that bound of the reference.
+#[test]
+fn clipped_gaussians_leave_no_seams() {
+    let ctx = gpu();
+    let text = isomarch::generate::Particles { count: 400, seed: 3, gaussian: true, motion: false }.ron().unwrap();
+    let s = Scene::parse(&text, "gaussian particles").unwrap();
+    let s = s.recentred(s.bounds.center());
+    let field = isomarch::field::Field::new(&s);
+    let (rays, pixels) = isomarch::render::rays::camera_rays(&s.camera, 96, 96, &s.bounds);
+    let rays: Vec<GpuRay> = rays.into_iter().zip(pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| r).collect();
+    let reference = reference_hits(&s, &rays, false);
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    assert!(renderer.index_stats().is_some(), "400 Gaussians march with the index");
+    let eps = isomarch::render::index::GAUSSIAN_CLIP_FRACTION * s.iso;
+    for method in [Method::QuadraticTaylor, Method::Segment, Method::Quadratic] {
+        let out = renderer.march(method, MarchOptions { shade: false, ..MarchOptions::for_scene(&s) }, &rays, |_| {}).unwrap();
+        let (mut checked, mut worst) = (0, 0.0f64);
+        for ((ray, res), tr) in rays.iter().zip(&out.results).zip(&reference) {
+            let r = isomarch::render::rays::Ray::from_gpu(ray);
+            let Some(tr) = tr else { continue };
+            let (_, grad) = field.value_gradient(r.o + tr * r.d);
+            let slope = grad.dot(r.d).abs();
+            if slope < 0.2 * grad.length() {
+                continue; // grazing: the crossing itself is ill-conditioned
+            }
+            assert!(res.counts[3] & isomarch::layout::FLAG_HIT != 0, "{method}: a ray hitting at {tr} squarely was missed");
+            let bound = 2.0 * eps / slope + 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
+            let err = (f64::from(res.hit[3]) - tr).abs();
+            worst = worst.max(err / bound);
+            checked += 1;
+        }
+        assert!(checked > 1000, "{method}: only {checked} rays checked");
+        assert!(worst <= 1.0, "{method}: a hit is {worst:.2} times the clipping bound away from the unclipped field: a seam");
+    }
+    assert_no_validation(&ctx);
+}
