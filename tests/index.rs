@@ -179,3 +179,34 @@ fn clipped_gaussians_leave_no_seams() {
     }
     assert_no_validation(&ctx);
 }
+
+/// Reflection and refraction (secondary rays, in generations) through 150
+/// dielectric blobs: the same picture with the index and without it.
+#[test]
+fn refraction_and_reflection_walk_the_index() {
+    let ctx = gpu();
+    let mut s = particles(150, 1, 13);
+    s.transparency = Some(Transparency { opacity: 1.0, absorption: DVec3::new(0.3, 0.1, 0.05), ior: Some(1.3), max_depth: 3, reflectivity: 1.0 });
+    s.camera.eye = DVec3::new(14.0, 10.0, 14.0);
+    let s = s.recentred_on_camera();
+    let (rays, pixels) = isomarch::render::rays::camera_rays(&s.camera, 64, 64, &s.bounds);
+    let mut frames = Vec::new();
+    for indexed in [true, false] {
+        let mut renderer = Renderer::with_index(&ctx, &s, indexed).unwrap();
+        assert_eq!(renderer.index_stats().is_some(), indexed);
+        let out = isomarch::render::offscreen::march_frame(&mut renderer, Method::QuadraticTaylor, MarchOptions::for_scene(&s), &rays).unwrap();
+        frames.push(isomarch::output::Frame::from_results(64, 64, &out.results, &pixels));
+    }
+    let (mut lit, mut worst) = (0, 0.0f32);
+    for (a, b) in frames[0].pixels.iter().zip(&frames[1].pixels) {
+        lit += usize::from(a.hit[3] >= 0.0);
+        for k in 0..3 {
+            worst = worst.max((a.color[k] - b.color[k]).abs());
+        }
+    }
+    assert!(lit > 400, "only {lit} pixels see the blobs");
+    // Sums in another order: f32 rounding, amplified at most a little by
+    // the bends of refraction.
+    assert!(worst < 2e-3, "a pixel differs by {worst} with and without the index");
+    assert_no_validation(&ctx);
+}

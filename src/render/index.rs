@@ -96,9 +96,7 @@ impl GridSpec {
     /// (few primitives).
     pub fn for_scene(scene: &Scene) -> Option<GridSpec> {
         let n = scene.primitive_count();
-        // ISOMARCH_INDEX=off marches without it (as far as the loop budget
-        // allows), to measure what it buys.
-        if n < INDEX_MIN_PRIMITIVES || std::env::var("ISOMARCH_INDEX").is_ok_and(|v| v == "off") {
+        if n < INDEX_MIN_PRIMITIVES {
             return None;
         }
         let radii = index_radii(scene);

@@ -319,8 +319,18 @@ fn specialization(scene: &Scene, method: Method, key: &PipelineKey, indexed: boo
 }
 
 impl Renderer {
-    /// Uploads `scene`. Fails with a one-line error when it does not fit.
+    /// Uploads `scene`, with the spatial index when it has more than 64
+    /// primitives (unless the environment sets `ISOMARCH_INDEX=off`, to
+    /// measure what the index buys). Fails with a one-line error when it
+    /// does not fit.
     pub fn new(ctx: &Arc<Context>, scene: &Scene) -> Result<Renderer> {
+        let indexed = std::env::var("ISOMARCH_INDEX").map_or(true, |v| v != "off");
+        Renderer::with_index(ctx, scene, indexed)
+    }
+
+    /// [`Renderer::new`] with the spatial index or without it (every
+    /// primitive in every step, as far as the loop budget allows).
+    pub fn with_index(ctx: &Arc<Context>, scene: &Scene, indexed: bool) -> Result<Renderer> {
         let limit = ctx.info.max_storage_buffer_range / size_of::<GpuPrimitive>() as u64;
         if scene.primitive_count() as u64 > limit {
             bail!(
@@ -330,7 +340,7 @@ impl Renderer {
                 ctx.info.name
             );
         }
-        let grid = GridSpec::for_scene(scene);
+        let grid = GridSpec::for_scene(scene).filter(|_| indexed);
         if let Some(g) = &grid {
             index::check_fits(g, ctx.info.max_storage_buffer_range, &scene.source)?;
         }
@@ -460,7 +470,7 @@ impl Renderer {
         }
         self.prims.write(0, &gpu_primitives(scene))?;
         self.scene = scene.clone();
-        let grid = GridSpec::for_scene(scene);
+        let grid = GridSpec::for_scene(scene).filter(|_| self.grid.is_some());
         if grid.map(|g| g.buffer_words()) != self.grid.map(|g| g.buffer_words()) {
             // Another box, other buffer sizes: new buffers, and pipelines
             // bound to them.
