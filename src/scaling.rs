@@ -464,7 +464,8 @@ impl Report {
     }
 
     /// Log-log plot of median time per ray against blobs, one line per
-    /// method, whiskers from the fastest to the slowest repeat.
+    /// method (each shifted a few percent along x so that their whiskers
+    /// stay apart), whiskers from the fastest to the slowest repeat.
     pub fn plot(&self, png: &Path, svg: &Path) -> Result<()> {
         write_png_svg(png, svg, (960, 640), |b| self.draw(b), |b| self.draw(b))
     }
@@ -512,25 +513,27 @@ impl Report {
             .label_style(("sans-serif", 13))
             .draw()
             .map_err(plot_err)?;
+        let methods = self.sweep.methods.len();
         for (i, &method) in self.sweep.methods.iter().enumerate() {
             let color = Palette99::pick(i).to_rgba();
             let rows: Vec<&Row> = self.rows.iter().filter(|r| r.method == method).collect();
+            // Each method a little to the side (4% per method on the log
+            // axis), so that whiskers at the same count do not overlap.
+            let dodge = 1.04f64.powf(i as f64 - 0.5 * (methods as f64 - 1.0));
+            let at = |r: &Row| r.count as f64 * dodge;
             chart
-                .draw_series(LineSeries::new(rows.iter().map(|r| (r.count as f64, r.median_ns())), color.stroke_width(2)))
+                .draw_series(LineSeries::new(rows.iter().map(|r| (at(r), r.median_ns())), color.stroke_width(2)))
                 .map_err(plot_err)?
                 .label(method.name())
                 .legend(move |(x, y)| PathElement::new(vec![(x - 10, y), (x + 10, y)], color.stroke_width(2)));
-            chart.draw_series(rows.iter().map(|r| Circle::new((r.count as f64, r.median_ns()), 4, color.filled()))).map_err(plot_err)?;
+            chart.draw_series(rows.iter().map(|r| Circle::new((at(r), r.median_ns()), 4, color.filled()))).map_err(plot_err)?;
             // Whiskers from the fastest to the slowest repeat, with caps
             // a fixed number of pixels wide.
             chart
-                .draw_series(rows.iter().map(|r| {
-                    let x = r.count as f64;
-                    PathElement::new(vec![(x, r.min_ns()), (x, r.max_ns())], color.stroke_width(2))
-                }))
+                .draw_series(rows.iter().map(|r| PathElement::new(vec![(at(r), r.min_ns()), (at(r), r.max_ns())], color.stroke_width(2))))
                 .map_err(plot_err)?;
-            let cap = move |at: (f64, f64)| EmptyElement::at(at) + PathElement::new(vec![(-7, 0), (7, 0)], color.stroke_width(2));
-            chart.draw_series(rows.iter().flat_map(|r| [cap((r.count as f64, r.min_ns())), cap((r.count as f64, r.max_ns()))])).map_err(plot_err)?;
+            let cap = move |p: (f64, f64)| EmptyElement::at(p) + PathElement::new(vec![(-6, 0), (6, 0)], color.stroke_width(2));
+            chart.draw_series(rows.iter().flat_map(|r| [cap((at(r), r.min_ns())), cap((at(r), r.max_ns()))])).map_err(plot_err)?;
         }
         chart
             .configure_series_labels()
