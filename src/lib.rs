@@ -17,6 +17,7 @@ pub mod layout;
 pub mod method;
 pub mod output;
 pub mod render;
+pub mod scaling;
 pub mod scene;
 pub mod settings;
 pub mod tradeoff;

@@ -58,6 +58,12 @@ enum Command {
     /// Write a benchmark scene, e.g. `generate particles --count 1000 --seed 1 -o p.ron`.
     #[command(subcommand)]
     Generate(GenerateCommand),
+    /// Measure how time per ray grows with the scene: `generate particles`
+    /// scenes of each --counts at a fixed density, every method on the
+    /// protocol rays, repeats interleaved. Writes DIR/scaling.md (also
+    /// printed), DIR/scaling.csv and a log-log plot (DIR/scaling.png and
+    /// .svg).
+    Scaling(ScalingArgs),
 }
 
 /// `isomarch generate`: what to make.
@@ -320,6 +326,38 @@ struct TradeoffArgs {
     gpu: GpuArgs,
 }
 
+/// `isomarch scaling`.
+#[derive(Args)]
+struct ScalingArgs {
+    /// Comma-separated numbers of blobs, one scene each.
+    #[arg(long, default_value = isomarch::scaling::DEFAULT_COUNTS, value_name = "N,N,...")]
+    counts: String,
+    /// Comma-separated marchers.
+    #[arg(long, default_value = isomarch::scaling::DEFAULT_METHODS)]
+    methods: String,
+    /// Protocol rays per scene.
+    #[arg(long, default_value_t = isomarch::scaling::DEFAULT_RAYS)]
+    rays: usize,
+    /// Timed marches of each scene and method; their order alternates
+    /// between repeats.
+    #[arg(long, default_value_t = isomarch::scaling::DEFAULT_REPEAT, value_name = "R")]
+    repeat: usize,
+    /// Seed of the scenes, as `generate particles --seed`.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Seed of the protocol rays, the same for every count.
+    #[arg(long, default_value_t = bench::DEFAULT_SEED)]
+    ray_seed: u64,
+    /// Gaussian blobs, as `generate particles --gaussian`.
+    #[arg(long)]
+    gaussian: bool,
+    /// Output folder.
+    #[arg(short, long, default_value = "scaling", value_name = "DIR")]
+    output: PathBuf,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
 /// `isomarch bench`.
 #[derive(Args)]
 struct BenchArgs {
@@ -479,7 +517,7 @@ fn check_time(time: f64) -> Result<f64> {
     Ok(time)
 }
 
-/// `--rays` of `tradeoff` and `bench`.
+/// `--rays` of `tradeoff`, `bench` and `scaling`.
 fn check_rays(rays: usize) -> Result<usize> {
     if rays == 0 {
         bail!("--rays must be at least 1");
@@ -487,7 +525,7 @@ fn check_rays(rays: usize) -> Result<usize> {
     Ok(rays)
 }
 
-/// `--methods` of `tradeoff` and `bench`: a comma-separated list.
+/// `--methods` of `tradeoff`, `bench` and `scaling`: a comma-separated list.
 fn parse_methods(list: &str) -> Result<Vec<Method>> {
     parse_list(list).map_err(anyhow::Error::msg).context("--methods")
 }
@@ -677,6 +715,39 @@ fn generate(command: GenerateCommand) -> Result<()> {
     }
 }
 
+fn scaling(args: ScalingArgs) -> Result<()> {
+    let ScalingArgs { counts, methods, rays, repeat, seed, ray_seed, gaussian, output, gpu } = args;
+    let sweep = isomarch::scaling::Sweep {
+        counts: isomarch::scaling::parse_counts(&counts)?,
+        methods: parse_methods(&methods)?,
+        rays: check_rays(rays)?,
+        repeat,
+        seed,
+        ray_seed,
+        gaussian,
+    };
+    sweep.check()?;
+    let gpu = gpu.open()?;
+    let report = isomarch::scaling::run(&gpu.ctx, &sweep, gpu.timeout, command_line(), true)?;
+    report.write(&output)?;
+    print!("{}", report.markdown());
+    eprintln!("wrote {}/scaling.md, .csv, .png, .svg", output.display());
+    finish(&gpu.ctx)
+}
+
+/// This process's command line as a shell would take it back, the program
+/// named `isomarch`.
+fn command_line() -> String {
+    let quote = |a: String| {
+        if !a.is_empty() && a.chars().all(|c| c.is_ascii_alphanumeric() || "-_./,=:+@%".contains(c)) {
+            a
+        } else {
+            format!("'{}'", a.replace('\'', "'\\''"))
+        }
+    };
+    std::iter::once("isomarch".to_string()).chain(std::env::args().skip(1).map(quote)).collect::<Vec<_>>().join(" ")
+}
+
 fn bench(args: BenchArgs) -> Result<()> {
     let methods = parse_methods(&args.methods)?;
     let rays = check_rays(args.rays)?;
@@ -735,6 +806,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Tradeoff(args) => tradeoff(args),
         Command::Bench(args) => bench(args),
         Command::Generate(command) => generate(command),
+        Command::Scaling(args) => scaling(args),
     }
 }
 

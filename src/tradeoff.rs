@@ -6,7 +6,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use anyhow::{Context as _, Result, bail};
+use anyhow::{Result, bail};
 use serde::Serialize;
 
 use crate::bench::{accuracy_all, reference_crossings};
@@ -178,30 +178,11 @@ pub fn csv(points: &[Point]) -> String {
     s
 }
 
-/// Where plots find a font: Debian's DejaVu Sans (package fonts-dejavu-core).
-const FONT: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
-
 /// Plots time per ray (log) against the error (log), one colour per
 /// method, the Pareto front joined and its points ringed, into `png` and
-/// `svg`.
+/// `svg` (atomically).
 pub fn plot(points: &[Point], title: &str, png: &Path, svg: &Path) -> Result<()> {
-    let font = std::fs::read(FONT).with_context(|| format!("reading the plot font {FONT} (Debian: apt-get install fonts-dejavu-core)"))?;
-    plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, Box::leak(font.into_boxed_slice()))
-        .map_err(|_| anyhow::anyhow!("{FONT} is not a usable font"))?;
-    let dir = png.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir)?;
-    // Drawn to temporary names, then renamed: a plot is whole or absent.
-    let tmp_png = dir.join(format!(".tradeoff.{}.png", std::process::id()));
-    let tmp_svg = dir.join(format!(".tradeoff.{}.svg", std::process::id()));
-    let drawn = draw(points, title, plotters::prelude::BitMapBackend::new(&tmp_png, (960, 640)))
-        .and_then(|()| draw(points, title, plotters::prelude::SVGBackend::new(&tmp_svg, (960, 640))))
-        .and_then(|()| std::fs::rename(&tmp_png, png).with_context(|| format!("writing {}", png.display())))
-        .and_then(|()| std::fs::rename(&tmp_svg, svg).with_context(|| format!("writing {}", svg.display())));
-    if drawn.is_err() {
-        let _ = std::fs::remove_file(&tmp_png);
-        let _ = std::fs::remove_file(&tmp_svg);
-    }
-    drawn
+    crate::output::plot::write_png_svg(png, svg, (960, 640), |b| draw(points, title, b), |b| draw(points, title, b))
 }
 
 fn draw<B: plotters::prelude::DrawingBackend>(points: &[Point], title: &str, backend: B) -> Result<()>

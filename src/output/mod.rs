@@ -1,7 +1,9 @@
 //! Images and statistics from march results: shaded PNG, step heatmap with a
-//! legend, OpenEXR AOVs, JSON statistics. Files are written atomically.
+//! legend, OpenEXR AOVs, JSON statistics, and what plots share ([`plot`]).
+//! Files are written atomically.
 
 mod heatmap;
+pub mod plot;
 
 use std::io::Cursor;
 use std::path::Path;

@@ -1,0 +1,103 @@
+//! `isomarch scaling` through the binary: a small sweep writes a CSV row
+//! per (count, method) with finite, positive figures, a markdown table
+//! headed by its command line, and a plot that decodes and is not blank;
+//! bad arguments are refused in one line before anything is written.
+
+mod common;
+
+use std::process::Command;
+
+use common::{bin, scratch};
+
+#[test]
+fn a_small_sweep_writes_its_table_csv_and_plot() {
+    let dir = scratch("scaling");
+    let out = Command::new(bin())
+        .args(["scaling", "--counts", "100,300", "--rays", "512", "--repeat", "2", "-o"])
+        .arg(&dir)
+        .args(["--validation", "--timeout", "300"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "scaling failed:\n{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+
+    let text = std::fs::read_to_string(dir.join("scaling.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name} in {header:?}"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let methods = ["segment", "quadratic-taylor", "quadratic"];
+    assert_eq!(rows.len(), 2 * methods.len(), "one row per (count, method):\n{text}");
+    for count in ["100", "300"] {
+        for m in methods {
+            let n = rows.iter().filter(|r| r[col("count")] == count && r[col("method")] == m).count();
+            assert_eq!(n, 1, "{count} blobs, {m}: {n} rows");
+        }
+    }
+    let num = |r: &[&str], c: &str| r[col(c)].parse::<f64>().unwrap_or_else(|_| panic!("{c} = {:?} in {r:?}", r[col(c)]));
+    for r in &rows {
+        assert_eq!(r.len(), header.len(), "{r:?}");
+        for c in [
+            "reference_hit_rate",
+            "hit_rate",
+            "steps_per_ray",
+            "evals_per_ray",
+            "ns_per_ray",
+            "ns_per_ray_min",
+            "ns_per_ray_max",
+            "time_ratio",
+            "index_build_ms",
+            "bytes_per_primitive",
+            "index_cells",
+            "index_entries",
+        ] {
+            assert!(num(r, c).is_finite() && num(r, c) > 0.0, "{c} in {r:?}");
+        }
+        for c in ["miss_rate", "false_hit_rate", "out_of_steps_rate"] {
+            assert!(num(r, c).is_finite() && (0.0..=1.0).contains(&num(r, c)), "{c} in {r:?}");
+        }
+        assert!(num(r, "ns_per_ray_min") <= num(r, "ns_per_ray") && num(r, "ns_per_ray") <= num(r, "ns_per_ray_max"), "{r:?}");
+        let each: Vec<f64> = r[col("ns_per_ray_each")].split(';').map(|t| t.parse().unwrap()).collect();
+        assert_eq!(each.len(), 2, "one time per repeat: {r:?}");
+        assert_eq!(num(r, "repeats"), 2.0);
+        if r[col("count")] == "100" {
+            assert_eq!(num(r, "time_ratio"), 1.0, "the smallest count is the base of the ratios: {r:?}");
+        }
+    }
+
+    let md = std::fs::read_to_string(dir.join("scaling.md")).unwrap();
+    assert!(md.starts_with("```sh\nisomarch scaling --counts 100,300 --rays 512 --repeat 2 -o "), "no command line on top:\n{md}");
+    assert_eq!(stdout, md, "stdout is the markdown written");
+    assert_eq!(md.lines().filter(|l| l.starts_with("| 100 |") || l.starts_with("| 300 |")).count(), 2 * methods.len() + 2, "{md}");
+
+    let png = image::open(dir.join("scaling.png")).unwrap().to_rgb8();
+    let distinct: std::collections::HashSet<_> = png.pixels().map(|p| p.0).collect();
+    assert!(distinct.len() > 10, "a blank plot");
+    assert!(std::fs::read_to_string(dir.join("scaling.svg")).unwrap().contains("<svg"));
+    // Written atomically: no temporary file is left beside them.
+    let mut names: Vec<String> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    assert_eq!(names, ["scaling.csv", "scaling.md", "scaling.png", "scaling.svg"]);
+}
+
+#[test]
+fn bad_arguments_are_refused_in_one_line() {
+    let dir = scratch("scaling-refuse");
+    for (args, expect) in [
+        (&["--counts", ""][..], "--counts"),
+        (&["--counts", "0,100"][..], "at least 1"),
+        (&["--counts", "100,abc"][..], "\"abc\""),
+        (&["--counts", "100,100"][..], "twice"),
+        (&["--methods", "segment,nope"][..], "--methods"),
+        (&["--rays", "0"][..], "--rays"),
+        (&["--repeat", "0"][..], "--repeat"),
+    ] {
+        let out = Command::new(bin()).arg("scaling").args(args).arg("-o").arg(dir.join("out")).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} was accepted");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{args:?}: one line: {stderr}");
+        assert!(stderr.starts_with("error: ") && stderr.contains(expect), "{args:?}: {stderr}");
+        assert!(out.stdout.is_empty());
+    }
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
+}
