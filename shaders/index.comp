@@ -10,13 +10,14 @@
 //   4 offset  each block adds its offset; the fill counters start at 0
 //   5 fill    each primitive writes its index into its lists
 //   6 sort    each list of at most SORT_MAX entries is sorted by index, so
-//             sums add up in the same order every frame
+//             sums add up in the same order every frame (longer lists keep
+//             the order the atomics gave them)
 // No invocation loops more than MAX_CELLS_PER_PRIMITIVE, SCAN_BLOCK,
 // SORT_MAX² or (lists / SCAN_BLOCK) times, all far below lavapipe's
 // per-invocation cap; the host keeps lists / SCAN_BLOCK below it.
 //
 // cell_start[list] ends as the first entry of the list, with
-// cell_start[lists] the total; index_scratch[0] the longest list,
+// cell_start[lists] the total; index_scratch[0] the longest cell list,
 // [1, 1 + blocks) the block totals, then one fill counter per list.
 #extension GL_GOOGLE_include_directive : require
 
@@ -96,7 +97,8 @@ void main() {
             uint c = cell_start[k];
             cell_start[k] = sum;
             sum += c;
-            longest = max(longest, c);
+            // The everywhere lists are counted apart by the host.
+            if (k % grid_lists_per_group() != grid_lists_per_group() - 1u) longest = max(longest, c);
         }
         index_scratch[1u + i] = sum;
         atomicMax(index_scratch[0], longest);

@@ -210,3 +210,61 @@ fn refraction_and_reflection_walk_the_index() {
     assert!(worst < 2e-3, "a pixel differs by {worst} with and without the index");
     assert_no_validation(&ctx);
 }
+
+/// A pose whose box is larger (every centre 1.4 times further out) needs
+/// another grid: new buffers, the pipelines bound to them again, and hits
+/// that stay exact.
+#[test]
+fn a_pose_with_a_larger_box_reallocates_the_index() {
+    let ctx = gpu();
+    let s = particles(800, 1, 14);
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    let rays = protocol_rays(&s.bounds, 64, 2);
+    // Pipelines exist before the move, so that rebinding them is tested.
+    renderer.march(Method::QuadraticTaylor, MarchOptions { shade: false, ..MarchOptions::for_scene(&s) }, &rays, |_| {}).unwrap();
+    let before = renderer.index_stats().unwrap();
+    let spread: Vec<Vec<_>> = s
+        .groups
+        .iter()
+        .map(|g| {
+            g.iter()
+                .map(|p| match *p {
+                    isomarch::scene::Primitive::Point { center, kernel } => isomarch::scene::Primitive::Point { center: 1.4 * center, kernel },
+                    other => other,
+                })
+                .collect()
+        })
+        .collect();
+    let mut moved = scene(spread, s.iso, Method::QuadraticTaylor, s.marching.min_step);
+    moved.camera = s.camera.clone();
+    renderer.set_scene(&moved).unwrap();
+    let after = renderer.index_stats().unwrap();
+    // (The cell count is capped at 8 per primitive, so the cells grew.)
+    assert!(after.cells != before.cells && after.cell_size > before.cell_size, "the grid did not change: {before:?} then {after:?}");
+    let rays = protocol_rays(&moved.bounds, 256, 3);
+    let reference = reference_hits(&moved, &rays, false);
+    let tol = 2.0 * moved.refine_tolerance() + 2e-6 * moved.bounds.diagonal();
+    for method in [Method::Segment, Method::QuadraticTaylor, Method::LinearBisection] {
+        let out = renderer.march(method, MarchOptions { shade: false, ..MarchOptions::for_scene(&moved) }, &rays, |_| {}).unwrap();
+        let acc = accuracy(&out.results, &reference, tol, tol);
+        assert!(acc.misses + acc.false_hits == 0, "{method} after the larger pose: {} missed, {} false", acc.misses, acc.false_hits);
+    }
+    assert_no_validation(&ctx);
+}
+
+/// Scenes of many groups march flat: the walk would cross the cells once
+/// per group.
+#[test]
+fn scenes_of_many_groups_march_flat() {
+    let ctx = gpu();
+    let s = particles(400, isomarch::render::index::MAX_INDEX_GROUPS + 1, 15);
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    assert!(renderer.index_stats().is_none());
+    let rays = protocol_rays(&s.bounds, 64, 5);
+    let reference = reference_hits(&s, &rays, false);
+    let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
+    let out = renderer.march(Method::QuadraticTaylor, MarchOptions { shade: false, ..MarchOptions::for_scene(&s) }, &rays, |_| {}).unwrap();
+    let acc = accuracy(&out.results, &reference, tol, tol);
+    assert!(acc.misses + acc.false_hits == 0, "{} missed, {} false", acc.misses, acc.false_hits);
+    assert_no_validation(&ctx);
+}

@@ -148,9 +148,9 @@ void cursor_enter_list(inout Cursor c, uint list) {
     c.end = cell_start[list + 1u];
 }
 
-// The group's everywhere list, then its first cell (if the query meets
-// the grid), or the next group.
-void cursor_enter_group(Query q, inout Cursor c) {
+// Starts the group's walk at its everywhere list (cursor_advance then
+// goes on to the grid's cells along the query).
+void cursor_enter_group(inout Cursor c) {
     c.in_grid = false;
     cursor_enter_list(c, everywhere_list(c.group));
 }
@@ -161,7 +161,7 @@ Cursor cursor_begin(Query q) {
     c.end = globals.sizes.x;
     c.group = 0u;
     c.done = false;
-    if (SC_INDEX != 0u) cursor_enter_group(q, c);
+    if (SC_INDEX != 0u) cursor_enter_group(c);
     return c;
 }
 
@@ -229,7 +229,7 @@ void cursor_advance(Query q, inout Cursor c) {
         c.done = true;
         return;
     }
-    cursor_enter_group(q, c);
+    cursor_enter_group(c);
 }
 
 // --- Terms: what one primitive adds to its group's sum. Each evaluation
@@ -355,8 +355,8 @@ bool bounds_quadratic(uint what) {
 Bound group_bound(uint what, Terms s) {
     if (what == EVAL_QUAD) return s.quad;
     if (what == EVAL_TAYLOR && quadratic_taylor()) return Bound(s.v, s.slope, 0.5 * s.lo, s.slope, 0.5 * s.hi, 0.0);   // Eq. 19
-    if (what == EVAL_TAYLOR) return Bound(s.v, s.lo, 0.0, s.hi, 0.0, 0.0);   // Eq. 13-15
-    return Bound(s.v, s.lo, 0.0, s.hi, 0.0, 0.0);                           // Section 5.2
+    // Linear Taylor (Eq. 13-15) and bottom-up linear (Section 5.2): slopes.
+    return Bound(s.v, s.lo, 0.0, s.hi, 0.0, 0.0);
 }
 
 // Folds one group's sum into the max over groups (for bounds, the

@@ -24,8 +24,15 @@ pub const MAX_CELLS_PER_PRIMITIVE: f64 = 512.0;
 pub const CELL_PAD: f64 = 1e-3;
 /// As in index.comp.
 pub const SCAN_BLOCK: usize = 256;
-/// The index build's top scan is one invocation's loop over the blocks.
-const MAX_LISTS: usize = 1 << 22;
+/// Lists at most: the index build dispatches one invocation per list, and
+/// Vulkan guarantees 65,535 workgroups (of 64) per dispatch; the top scan
+/// loops over lists / 256 blocks, far below lavapipe's per-invocation cap.
+const MAX_LISTS: usize = 65_535 * 64 - 1;
+/// Primitives at most, for the same reason (one invocation each).
+pub const MAX_INDEXED_PRIMITIVES: usize = 65_535 * 64;
+/// Groups at most: the walk crosses the cells once per group, so a scene
+/// of many groups marches faster flat.
+pub const MAX_INDEX_GROUPS: usize = 16;
 /// Cell size over the median index radius: a cell of side h holds about
 /// `density (h + 2ρ)³` entries and a ray crosses `1/h` cells per unit of
 /// length, so the entries a ray visits per unit of length, `density (h +
@@ -96,7 +103,7 @@ impl GridSpec {
     /// (few primitives).
     pub fn for_scene(scene: &Scene) -> Option<GridSpec> {
         let n = scene.primitive_count();
-        if n < INDEX_MIN_PRIMITIVES {
+        if n < INDEX_MIN_PRIMITIVES || scene.groups.len() > MAX_INDEX_GROUPS {
             return None;
         }
         let radii = index_radii(scene);
@@ -115,7 +122,7 @@ impl GridSpec {
         let groups = scene.groups.len();
         let mut cell = CELL_PER_RADIUS * median;
         // At most a few cells per primitive, and at most MAX_LISTS lists.
-        let max_cells = (8 * n).clamp(64, MAX_LISTS / groups.max(1) - 1) as f64;
+        let max_cells = (8 * n).min(MAX_LISTS / groups.max(1) - 1).max(64) as f64;
         let cells = |c: f64| (extent / c).ceil().max(DVec3::ONE);
         while cells(cell).element_product() > max_cells {
             cell *= 1.25;
@@ -123,11 +130,19 @@ impl GridSpec {
         let d = cells(cell);
         let dims = [d.x as u32, d.y as u32, d.z as u32];
         let lists_per_group = (d.element_product() as usize) + 1;
+        // Bounds that hold whichever way the GPU's f32 decides a primitive
+        // on the edge of the everywhere test: at most its box's cells (and
+        // at most MAX_CELLS_PER_PRIMITIVE) entries, and counted among the
+        // everywhere entries whenever it might be one.
         let (mut entry_capacity, mut everywhere) = (0, 0);
         for r in &radii {
             match r {
-                Some(r) if span(*r, cell).powi(3) <= MAX_CELLS_PER_PRIMITIVE => entry_capacity += span(*r, cell).powi(3) as usize,
-                _ => {
+                Some(r) => {
+                    let (lo, hi) = (span(*r * (1.0 - 1e-5), cell), span(*r * (1.0 + 1e-5) + 1e-6 * cell, cell));
+                    entry_capacity += hi.powi(3).clamp(1.0, MAX_CELLS_PER_PRIMITIVE) as usize;
+                    everywhere += usize::from(hi.powi(3) > MAX_CELLS_PER_PRIMITIVE || lo.powi(3) > MAX_CELLS_PER_PRIMITIVE);
+                }
+                None => {
                     entry_capacity += 1;
                     everywhere += 1;
                 }
