@@ -33,7 +33,7 @@ layout(push_constant) uniform IndexPush {
     uint unused;
 } push;
 
-const uint SCAN_BLOCK = 256u;
+// (SCAN_BLOCK comes from src/layout.rs.)
 const uint SORT_MAX = 64u;
 
 uint list_count() {

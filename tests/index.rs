@@ -33,6 +33,23 @@ fn particles(n: usize, groups: usize, seed: u64) -> Scene {
     s
 }
 
+/// Hits within the refinement tolerance plus f32 rounding of the scene.
+fn tolerance(s: &Scene) -> f64 {
+    2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal()
+}
+
+/// `methods`' first hits on `rays` (opaque) agree with the f64 reference:
+/// no miss, no false hit.
+fn assert_first_hits(renderer: &mut Renderer, s: &Scene, rays: &[GpuRay], methods: &[Method], what: &str) {
+    let reference = reference_hits(s, rays, false);
+    let tol = tolerance(s);
+    for &method in methods {
+        let out = renderer.march(method, MarchOptions { shade: false, ..MarchOptions::for_scene(s) }, rays, |_| {}).unwrap();
+        let acc = accuracy(&out.results, &reference, tol, tol);
+        assert!(acc.misses + acc.false_hits == 0, "{method} {what}: {} missed, {} false", acc.misses, acc.false_hits);
+    }
+}
+
 fn assert_finite(results: &[GpuResult], what: &str) {
     for r in results {
         assert!(r.hit.iter().chain(&r.color).all(|x| x.is_finite()), "{what}: non-finite result {r:?}");
@@ -46,7 +63,7 @@ fn assert_finite(results: &[GpuResult], what: &str) {
 /// f32 rounding.
 fn check_scene(s: &Scene, rays: &[GpuRay], what: &str) {
     let ctx = gpu();
-    let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
+    let tol = tolerance(s);
     let mut renderer = Renderer::new(&ctx, s).unwrap();
     let stats = renderer.index_stats().expect("a scene of more than 64 primitives marches with the index");
     assert!(stats.entries >= s.primitive_count() && stats.longest_list > 0, "{what}: {stats:?}");
@@ -110,13 +127,7 @@ fn moved_primitives_rebuild_the_index() {
     }
     renderer.set_scene(&moved).unwrap();
     let rays = protocol_rays(&s.bounds, 256, 8);
-    let reference = reference_hits(&moved, &rays, false);
-    let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
-    for method in [Method::Segment, Method::QuadraticTaylor] {
-        let out = renderer.march(method, MarchOptions { shade: false, ..MarchOptions::for_scene(&moved) }, &rays, |_| {}).unwrap();
-        let acc = accuracy(&out.results, &reference, tol, tol);
-        assert!(acc.misses + acc.false_hits == 0, "{method} after the move: {} missed, {} false", acc.misses, acc.false_hits);
-    }
+    assert_first_hits(&mut renderer, &moved, &rays, &[Method::Segment, Method::QuadraticTaylor], "after the move");
     assert_no_validation(&ctx);
 }
 
@@ -130,7 +141,7 @@ fn transparency_from_the_scene_file_marches_with_the_index() {
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
     let out = renderer.march(Method::Quadratic, MarchOptions::for_scene(&s), &rays, |_| {}).unwrap();
     let all = reference_crossings(&s, &rays, false, false);
-    let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
+    let tol = tolerance(&s);
     let acc = accuracy_all(&out.crossings, &all, tol, tol);
     assert!(all.iter().map(Vec::len).sum::<usize>() > 100, "too few crossings to test");
     assert!(acc.misses + acc.false_hits == 0, "{} missed, {} false crossings", acc.misses, acc.false_hits);
@@ -169,7 +180,7 @@ fn clipped_gaussians_leave_no_seams() {
                 continue; // grazing: the crossing itself is ill-conditioned
             }
             assert!(res.counts[3] & isomarch::layout::FLAG_HIT != 0, "{method}: a ray hitting at {tr} squarely was missed");
-            let bound = 2.0 * eps / slope + 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
+            let bound = 2.0 * eps / slope + tolerance(&s);
             let err = (f64::from(res.hit[3]) - tr).abs();
             worst = worst.max(err / bound);
             checked += 1;
@@ -242,13 +253,8 @@ fn a_pose_with_a_larger_box_reallocates_the_index() {
     // (The cell count is capped at 8 per primitive, so the cells grew.)
     assert!(after.cells != before.cells && after.cell_size > before.cell_size, "the grid did not change: {before:?} then {after:?}");
     let rays = protocol_rays(&moved.bounds, 256, 3);
-    let reference = reference_hits(&moved, &rays, false);
-    let tol = 2.0 * moved.refine_tolerance() + 2e-6 * moved.bounds.diagonal();
-    for method in [Method::Segment, Method::QuadraticTaylor, Method::LinearBisection] {
-        let out = renderer.march(method, MarchOptions { shade: false, ..MarchOptions::for_scene(&moved) }, &rays, |_| {}).unwrap();
-        let acc = accuracy(&out.results, &reference, tol, tol);
-        assert!(acc.misses + acc.false_hits == 0, "{method} after the larger pose: {} missed, {} false", acc.misses, acc.false_hits);
-    }
+    let methods = [Method::Segment, Method::QuadraticTaylor, Method::LinearBisection];
+    assert_first_hits(&mut renderer, &moved, &rays, &methods, "after the larger pose");
     assert_no_validation(&ctx);
 }
 
@@ -260,11 +266,6 @@ fn scenes_of_many_groups_march_flat() {
     let s = particles(400, isomarch::render::index::MAX_INDEX_GROUPS + 1, 15);
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
     assert!(renderer.index_stats().is_none());
-    let rays = protocol_rays(&s.bounds, 64, 5);
-    let reference = reference_hits(&s, &rays, false);
-    let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
-    let out = renderer.march(Method::QuadraticTaylor, MarchOptions { shade: false, ..MarchOptions::for_scene(&s) }, &rays, |_| {}).unwrap();
-    let acc = accuracy(&out.results, &reference, tol, tol);
-    assert!(acc.misses + acc.false_hits == 0, "{} missed, {} false", acc.misses, acc.false_hits);
+    assert_first_hits(&mut renderer, &s, &protocol_rays(&s.bounds, 64, 5), &[Method::QuadraticTaylor], "with many groups");
     assert_no_validation(&ctx);
 }

@@ -12,12 +12,7 @@
 #ifndef GRID_GLSL
 #define GRID_GLSL
 
-// More cells than this in a primitive's padded box: everywhere instead.
-const uint MAX_CELLS_PER_PRIMITIVE = 512u;
-
-// A primitive's box is padded by this fraction of a cell, so that the
-// traversal's rounding never misses the cell it looks in.
-const float CELL_PAD = 1e-3;
+// MAX_CELLS_PER_PRIMITIVE and CELL_PAD come from src/layout.rs.
 
 uint grid_lists_per_group() {
     return globals.grid_dims.w;

@@ -14,16 +14,12 @@
 use anyhow::{Result, bail};
 use glam::DVec3;
 
+use crate::layout::{CELL_PAD, MAX_CELLS_PER_PRIMITIVE, SCAN_BLOCK};
 use crate::scene::{Kernel, Primitive, Scene};
 
-/// Scenes of more primitives than per-ray culling handles (64) march with
-/// the index.
-pub const INDEX_MIN_PRIMITIVES: usize = 65;
-/// As in grid.glsl.
-pub const MAX_CELLS_PER_PRIMITIVE: f64 = 512.0;
-pub const CELL_PAD: f64 = 1e-3;
-/// As in index.comp.
-pub const SCAN_BLOCK: usize = 256;
+/// Scenes of more primitives than per-ray culling handles march with the
+/// index.
+pub const INDEX_MIN_PRIMITIVES: usize = super::CULL_MAX_PRIMITIVES + 1;
 /// Lists at most: the index build dispatches one invocation per list, and
 /// Vulkan guarantees 65,535 workgroups (of 64) per dispatch; the top scan
 /// loops over lists / 256 blocks, far below lavapipe's per-invocation cap.
@@ -95,7 +91,7 @@ pub struct GridSpec {
 
 /// Cells per axis a box of half-width `radius` (padded) can cover.
 fn span(radius: f64, cell: f64) -> f64 {
-    (2.0 * (radius + CELL_PAD * cell) / cell).ceil() + 1.0
+    (2.0 * (radius + f64::from(CELL_PAD) * cell) / cell).ceil() + 1.0
 }
 
 impl GridSpec {
@@ -139,8 +135,9 @@ impl GridSpec {
             match r {
                 Some(r) => {
                     let (lo, hi) = (span(*r * (1.0 - 1e-5), cell), span(*r * (1.0 + 1e-5) + 1e-6 * cell, cell));
-                    entry_capacity += hi.powi(3).clamp(1.0, MAX_CELLS_PER_PRIMITIVE) as usize;
-                    everywhere += usize::from(hi.powi(3) > MAX_CELLS_PER_PRIMITIVE || lo.powi(3) > MAX_CELLS_PER_PRIMITIVE);
+                    entry_capacity += hi.powi(3).clamp(1.0, f64::from(MAX_CELLS_PER_PRIMITIVE)) as usize;
+                    let most = f64::from(MAX_CELLS_PER_PRIMITIVE);
+                    everywhere += usize::from(hi.powi(3) > most || lo.powi(3) > most);
                 }
                 None => {
                     entry_capacity += 1;
@@ -156,7 +153,7 @@ impl GridSpec {
     }
 
     pub fn blocks(&self) -> usize {
-        self.lists().div_ceil(SCAN_BLOCK)
+        self.lists().div_ceil(SCAN_BLOCK as usize)
     }
 
     /// u32s of the three index buffers: list starts, entries, scratch.
