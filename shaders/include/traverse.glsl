@@ -88,8 +88,10 @@ void uncull() {
 }
 
 // --- The cursor. One loop turn per position; a position may yield a
-// primitive or not (a culled one; an empty cell, a primitive seen in an
-// earlier cell). Without SC_INDEX: the flat list, culled. With SC_INDEX:
+// primitive or not (an empty cell, a primitive seen in an earlier cell).
+// Without SC_INDEX: the flat list; culled (SC_CULL), only the primitives
+// whose bits are set, one turn each, so that a fold costs what the ray
+// meets rather than what the scene holds. With SC_INDEX:
 // per group, its everywhere list and then the grid's lists along the query
 // (the one cell of a point; the cells a 3D DDA walks for an interval),
 // each primitive yielded in the first cell where the ray meets its support.
@@ -98,6 +100,7 @@ const uint NO_PRIMITIVE = 0xffffffffu;
 struct Cursor {
     uint at;        // the current entry (flat: the primitive)
     uint end;       // the end of the current list
+    uvec2 bits;     // SC_CULL: the culled primitives not yet yielded
     uint group;     // SC_INDEX: the group walked
     bool in_grid;   //   past the group's everywhere list
     bool done;      //   every group walked
@@ -155,13 +158,24 @@ void cursor_enter_group(inout Cursor c) {
     cursor_enter_list(c, everywhere_list(c.group));
 }
 
+// SC_CULL: the lowest set bit's primitive (at least `end` when none is
+// left; bits past the last primitive, set by uncull, are past `end` too).
+uint lowest_bit(uvec2 bits) {
+    return bits.x != 0u ? uint(findLSB(bits.x)) : bits.y != 0u ? 32u + uint(findLSB(bits.y)) : 64u;
+}
+
 Cursor cursor_begin(Query q) {
     Cursor c;
     c.at = 0u;
     c.end = globals.sizes.x;
     c.group = 0u;
     c.done = false;
-    if (SC_INDEX != 0u) cursor_enter_group(c);
+    if (SC_INDEX != 0u) {
+        cursor_enter_group(c);
+    } else if (SC_CULL != 0u) {
+        c.bits = g_mask;
+        c.at = lowest_bit(c.bits);
+    }
     return c;
 }
 
@@ -172,7 +186,7 @@ bool cursor_valid(Cursor c) {
 // The primitive at the cursor's position, or NO_PRIMITIVE.
 uint cursor_primitive(Cursor c) {
     if (SC_INDEX != 0u) return c.at < c.end ? cell_entries[c.at] : NO_PRIMITIVE;
-    return SC_CULL == 0u || ((g_mask[c.at >> 5u] >> (c.at & 31u)) & 1u) != 0u ? c.at : NO_PRIMITIVE;
+    return c.at;
 }
 
 // Whether the cursor hands pr to the evaluations. With the index: a
@@ -202,6 +216,11 @@ bool cursor_admits(Cursor c, GpuPrimitive pr, Query q) {
 // Moves to the next position: the next entry of the list, else the next
 // list (cell, group).
 void cursor_advance(Query q, inout Cursor c) {
+    if (SC_INDEX == 0u && SC_CULL != 0u) {
+        c.bits[c.at >> 5u] &= ~(1u << (c.at & 31u));
+        c.at = lowest_bit(c.bits);
+        return;
+    }
     c.at += 1u;
     if (SC_INDEX == 0u || c.at < c.end) return;
     if (!c.in_grid) {
