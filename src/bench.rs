@@ -20,6 +20,7 @@ use crate::render::rays::{Ray, protocol_rays};
 use crate::render::index::IndexStats;
 use crate::render::{MarchOptions, Renderer};
 use crate::scene::{Kernel, Primitive, Scene};
+use crate::stats::{median, range};
 
 /// docs/benchmark-protocol.md: 1,048,576 rays unless told otherwise.
 pub const DEFAULT_RAYS: usize = 1 << 20;
@@ -31,7 +32,12 @@ pub struct MethodReport {
     pub steps_per_ray: f64,
     pub evals_per_ray: f64,
     pub refine_per_ray: f64,
+    /// GPU time per ray: the median over repeats (`None` without GPU
+    /// timestamps), then every repeat's, the fastest and the slowest.
     pub ns_per_ray: Option<f64>,
+    pub ns_per_ray_runs: Vec<f64>,
+    pub ns_per_ray_min: Option<f64>,
+    pub ns_per_ray_max: Option<f64>,
     pub hit_rate: f64,
     /// The reference finds a crossing that the method misses or reports
     /// later than the reference plus the minimum step.
@@ -42,9 +48,13 @@ pub struct MethodReport {
     pub mean_abs_error: f64,
     pub max_abs_error: f64,
     pub out_of_steps_rate: f64,
-    /// Ratios to the first method of the run.
+    /// Ratios to the first method of the run; the time ratio is the median
+    /// over repeats of the ratio measured within each repeat, then the
+    /// smallest and largest of those.
     pub step_ratio: f64,
     pub time_ratio: Option<f64>,
+    pub time_ratio_min: Option<f64>,
+    pub time_ratio_max: Option<f64>,
     /// Mean over marching steps of the fraction of the requested interval
     /// that validity intervals keep, from the f64 mirror of the march on
     /// the first `VALIDITY_SAMPLE_RAYS` rays (`quadratic` on scenes with
@@ -108,6 +118,8 @@ pub struct BenchReport {
     pub device: String,
     pub rays: usize,
     pub seed: u64,
+    /// Times the methods ran, interleaved (method after method, then again).
+    pub repeats: usize,
     pub min_step: f64,
     pub max_steps: u32,
     pub reference_hit_rate: f64,
@@ -226,18 +238,27 @@ pub fn accuracy_all(found: &[Vec<f32>], reference: &[Vec<f64>], late_by: f64, ea
     a
 }
 
+/// What a benchmark runs: its methods, the variants each runs in, the
+/// ray set and how many times.
+#[derive(Clone, Debug)]
+pub struct Plan<'a> {
+    pub methods: &'a [Method],
+    pub variants: &'a [Variant],
+    pub rays: usize,
+    pub seed: u64,
+    /// The whole list of rows runs this many times, interleaved, so that a
+    /// slow spell of the machine hits every method alike.
+    pub repeats: usize,
+}
+
 /// Runs every method on the same protocol rays and compares them. Each
 /// method runs in each of `variants` that changes it (the first is the
-/// default; rows of the others are marked, e.g. "no cull").
-pub fn run(
-    ctx: &Arc<Context>,
-    scene: &Scene,
-    methods: &[Method],
-    variants: &[Variant],
-    rays: usize,
-    seed: u64,
-    timeout: std::time::Duration,
-) -> Result<BenchReport> {
+/// default; rows of the others are marked, e.g. "no cull"). Counts and
+/// accuracy come from the first repeat (marching is deterministic: the
+/// later repeats only time it again).
+pub fn run(ctx: &Arc<Context>, scene: &Scene, plan: &Plan, timeout: std::time::Duration) -> Result<BenchReport> {
+    let Plan { methods, variants, rays, seed, repeats } = *plan;
+    anyhow::ensure!(repeats >= 1, "the benchmark must run at least once");
     // The GPU's coordinates centred on the box the rays aim at (f32).
     let scene = &scene.recentred(scene.bounds.center());
     let ray_set = protocol_rays(&scene.bounds, rays, seed);
@@ -246,7 +267,7 @@ pub fn run(
     let mut renderer = Renderer::new(ctx, scene)?;
     renderer.timeout = timeout;
     let default = variants.first().copied().unwrap_or(Variant { cull: true, quad: scene.marching.quad, generic: false });
-    let mut reports: Vec<MethodReport> = Vec::new();
+    let mut rows: Vec<(Method, Variant)> = Vec::new();
     for &method in methods {
         let mut done: Vec<Variant> = Vec::new();
         for &variant in variants {
@@ -254,15 +275,37 @@ pub fn run(
                 continue;
             }
             done.push(variant);
-            reports.push(run_one(&mut renderer, scene, method, variant, default, &ray_set, &reference, reports.first())?);
+            rows.push((method, variant));
         }
     }
+    let mut reports: Vec<MethodReport> = Vec::new();
+    let mut times: Vec<Vec<Option<f64>>> = vec![Vec::new(); rows.len()];
+    for repeat in 0..repeats {
+        for (i, &(method, variant)) in rows.iter().enumerate() {
+            let mut label = format!("{method}{}", variant.suffix(&default));
+            if repeats > 1 {
+                label.push_str(&format!(" [{}/{repeats}]", repeat + 1));
+            }
+            if repeat == 0 {
+                let r = run_one(&mut renderer, scene, method, variant, default, &ray_set, &reference, reports.first(), &label)?;
+                times[i].push(r.ns_per_ray);
+                reports.push(r);
+            } else {
+                let bar = progress(rays as u64, &label);
+                let out = renderer.march(method, variant.options(scene), &ray_set, |done| bar.set_position(done as u64))?;
+                bar.finish_and_clear();
+                times[i].push(MarchStats::of(&out.results, out.gpu_ns).ns_per_ray);
+            }
+        }
+    }
+    summarise_times(&mut reports, &times);
     let ref_hits = reference.iter().filter(|r| !r.is_empty()).count();
     Ok(BenchReport {
         scene: scene.source.clone(),
         device: ctx.info.name.clone(),
         rays,
         seed,
+        repeats,
         min_step: scene.marching.min_step,
         max_steps: scene.marching.max_steps,
         reference_hit_rate: ref_hits as f64 / rays.max(1) as f64,
@@ -283,11 +326,11 @@ fn run_one(
     ray_set: &[GpuRay],
     reference: &[Vec<f64>],
     first: Option<&MethodReport>,
+    label: &str,
 ) -> Result<MethodReport> {
     let rays = ray_set.len();
     {
-        let label = format!("{method}{}", variant.suffix(&default));
-        let bar = progress(rays as u64, &label);
+        let bar = progress(rays as u64, label);
         let out = renderer.march(method, variant.options(scene), ray_set, |done| bar.set_position(done as u64))?;
         bar.finish_and_clear();
         let stats = MarchStats::of(&out.results, out.gpu_ns);
@@ -300,11 +343,14 @@ fn run_one(
         };
         let validity_kept = (method == Method::Quadratic && scene.has_gaussians()).then(|| validity_kept(scene, method, variant.quad, ray_set));
         Ok(MethodReport {
-            method: label,
+            method: format!("{method}{}", variant.suffix(&default)),
             steps_per_ray: stats.steps_per_ray,
             evals_per_ray: stats.evals_per_ray,
             refine_per_ray: stats.refine_per_ray,
             ns_per_ray: stats.ns_per_ray,
+            ns_per_ray_runs: Vec::new(),
+            ns_per_ray_min: None,
+            ns_per_ray_max: None,
             hit_rate: stats.hit_rate,
             miss_rate: acc.misses as f64 / n,
             false_hit_rate: acc.false_hits as f64 / n,
@@ -312,12 +358,34 @@ fn run_one(
             max_abs_error: acc.max_abs_error,
             out_of_steps_rate: stats.out_of_steps_rate,
             step_ratio: first.map_or(1.0, |f| stats.steps_per_ray / f.steps_per_ray),
-            time_ratio: match first {
-                None => stats.ns_per_ray.map(|_| 1.0),
-                Some(f) => stats.ns_per_ray.zip(f.ns_per_ray).map(|(a, b)| a / b),
-            },
+            time_ratio: None,
+            time_ratio_min: None,
+            time_ratio_max: None,
             validity_kept,
         })
+    }
+}
+
+/// Fills each row's time figures from `times[row][repeat]` (GPU ns per
+/// ray; `None` without timestamps): the median and range over repeats, and
+/// the ratio to the first row as the median of per-repeat ratios.
+fn summarise_times(reports: &mut [MethodReport], times: &[Vec<Option<f64>>]) {
+    let runs: Vec<Option<Vec<f64>>> = times.iter().map(|t| t.iter().copied().collect()).collect();
+    for (r, ns) in reports.iter_mut().zip(&runs) {
+        let Some(ns) = ns else {
+            r.ns_per_ray = None;
+            continue;
+        };
+        let (lo, hi) = range(ns);
+        r.ns_per_ray = Some(median(ns));
+        r.ns_per_ray_runs = ns.clone();
+        (r.ns_per_ray_min, r.ns_per_ray_max) = (Some(lo), Some(hi));
+        if let Some(Some(base)) = runs.first() {
+            let ratios: Vec<f64> = ns.iter().zip(base).map(|(a, b)| a / b).collect();
+            let (lo, hi) = range(&ratios);
+            r.time_ratio = Some(median(&ratios));
+            (r.time_ratio_min, r.time_ratio_max) = (Some(lo), Some(hi));
+        }
     }
 }
 
@@ -332,6 +400,7 @@ fn validity_kept(scene: &Scene, method: Method, quad: QuadSettings, rays: &[GpuR
         growth: scene.marching.growth.unwrap_or_else(|| method.default_growth()),
         tolerance: scene.refine_tolerance(),
         quad,
+        refine: scene.marching.refine,
         transparent: scene.transparency.is_some(),
     };
     let (kept, steps) = rays
@@ -356,6 +425,13 @@ pub fn markdown(report: &BenchReport) -> String {
         "scene `{}`, {} rays (seed {}), minimum step {}, maximum steps {}, device {}; reference hit rate {:.4}\n\n",
         report.scene, report.rays, report.seed, report.min_step, report.max_steps, report.device, report.reference_hit_rate
     );
+    if report.repeats > 1 {
+        s.push_str(&format!(
+            "{} repeats, interleaved: ns/ray is the median over repeats (fastest–slowest), time vs {base} the median of the \
+             ratios measured within each repeat (smallest–largest).\n\n",
+            report.repeats
+        ));
+    }
     if let Some(c) = report.reference_crossings {
         s.push_str(&format!(
             "Transparent: every crossing to the box exit; the reference finds {c:.3} crossings per ray, and miss and false-hit rates are per reference crossing.\n\n"
@@ -365,7 +441,17 @@ pub fn markdown(report: &BenchReport) -> String {
         "| method | steps/ray | evals/ray | refine/ray | ns/ray | hit rate | miss rate | false hits | mean err | max err | steps vs {base} | time vs {base} |\n"
     ));
     s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
-    let opt = |v: Option<f64>, p: usize| v.map_or("n/a".to_string(), |v| format!("{v:.p$}"));
+    let spread = report.repeats > 1;
+    let ns = |m: &MethodReport| match (m.ns_per_ray, m.ns_per_ray_min, m.ns_per_ray_max) {
+        (Some(v), Some(lo), Some(hi)) if spread => format!("{v:.1} ({lo:.0}–{hi:.0})"),
+        (Some(v), ..) => format!("{v:.1}"),
+        _ => "n/a".to_string(),
+    };
+    let ratio = |m: &MethodReport| match (m.time_ratio, m.time_ratio_min, m.time_ratio_max) {
+        (Some(r), Some(lo), Some(hi)) if spread => format!("{r:.3}x ({lo:.3}–{hi:.3})"),
+        (Some(r), ..) => format!("{r:.3}x"),
+        _ => "n/a".to_string(),
+    };
     for m in &report.methods {
         s.push_str(&format!(
             "| {} | {:.2} | {:.1} | {:.2} | {} | {:.4} | {:.5} | {:.5} | {:.2e} | {:.2e} | {:.3}x | {} |\n",
@@ -373,14 +459,14 @@ pub fn markdown(report: &BenchReport) -> String {
             m.steps_per_ray,
             m.evals_per_ray,
             m.refine_per_ray,
-            opt(m.ns_per_ray, 1),
+            ns(m),
             m.hit_rate,
             m.miss_rate,
             m.false_hit_rate,
             m.mean_abs_error,
             m.max_abs_error,
             m.step_ratio,
-            m.time_ratio.map_or("n/a".into(), |r| format!("{r:.3}x")),
+            ratio(m),
         ));
     }
     if let Some(i) = &report.index {

@@ -20,6 +20,7 @@ pub mod render;
 pub mod scaling;
 pub mod scene;
 pub mod settings;
+pub mod stats;
 pub mod tradeoff;
 pub mod view;
 

@@ -154,6 +154,11 @@ struct MarchArgs {
     /// 2 for the other methods.
     #[arg(long, value_name = "K")]
     growth: Option<f64>,
+    /// How a crossing is narrowed to the refinement tolerance (default:
+    /// the scene's marching.refine, else secant; bisection reproduces the
+    /// figures measured before secant refinement).
+    #[arg(long, value_enum)]
+    refine: Option<isomarch::settings::Refinement>,
 }
 
 impl MarchArgs {
@@ -187,6 +192,9 @@ impl MarchArgs {
                 bail!("--growth must be a finite number >= 1, got {k}");
             }
             scene.marching.growth = Some(k);
+        }
+        if let Some(r) = self.refine {
+            scene.marching.refine = r;
         }
         Ok(())
     }
@@ -372,6 +380,12 @@ struct BenchArgs {
     /// Seed of the ray set.
     #[arg(long, default_value_t = bench::DEFAULT_SEED)]
     seed: u64,
+    /// Run the whole list of methods this many times, interleaved, and
+    /// report each time as the median over repeats with its range, and
+    /// each time ratio as the median of the ratios within each repeat
+    /// (GPU times move by 10-30% between runs on a shared CPU).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    repeat: usize,
     /// Also write the report as JSON.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
@@ -755,7 +769,11 @@ fn bench(args: BenchArgs) -> Result<()> {
     let scene = args.march.load(&args.scene)?.at_time(0.0);
     let gpu = args.gpu.open()?;
     let variants = args.variants.variants(&scene);
-    let report = bench::run(&gpu.ctx, &scene, &methods, &variants, rays, args.seed, gpu.timeout)?;
+    if args.repeat == 0 {
+        bail!("--repeat must be at least 1");
+    }
+    let plan = bench::Plan { methods: &methods, variants: &variants, rays, seed: args.seed, repeats: args.repeat };
+    let report = bench::run(&gpu.ctx, &scene, &plan, gpu.timeout)?;
     print!("{}", bench::markdown(&report));
     if let Some(path) = args.json {
         write_atomic(&path, &serde_json::to_vec_pretty(&report)?)?;

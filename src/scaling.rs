@@ -34,6 +34,7 @@ use crate::render::index::IndexStats;
 use crate::render::rays::protocol_rays;
 use crate::render::{MarchOptions, Renderer};
 use crate::scene::Scene;
+use crate::stats::median;
 
 pub const DEFAULT_COUNTS: &str = "100,1000,10000,100000";
 pub const DEFAULT_METHODS: &str = "segment,quadratic-taylor,quadratic";
@@ -294,17 +295,6 @@ fn prepare(ctx: &Arc<Context>, sweep: &Sweep, count: usize, timeout: Duration, s
         build_ms: Vec::new(),
     };
     Ok((Prepared { scene, rays, reference, renderer }, report))
-}
-
-/// The median (the mean of the middle two for an even count; NaN for none).
-pub fn median(values: &[f64]) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
 }
 
 fn join(counts: &[usize]) -> String {
