@@ -25,8 +25,8 @@ void main() {
     } else {
         GpuMarchState s = states[i];
         if ((s.n.w & FLAG_DONE) != 0u) return;
-        m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w, s.node.x, s.node.y, s.node.w, s.node.z, s.v.w, s.light.w, s.light.rgb, s.trans.rgb,
-                  s.refine.x, s.refine.y, uint(s.refine.z));
+        m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w & 0xFFFFu, s.node.x, s.node.y, s.node.w, s.node.z, s.v.w, s.light.w, s.light.rgb,
+                  s.trans.rgb, s.trans.w, s.refine.x, s.refine.y, s.refine.z, s.refine.w, s.n.w >> 24u, (s.n.w >> 16u) & 0xFFu);
         g_evals = s.n.y;
     }
     // What remains of the ray: bisection revisits it all, Algorithm 1 only
@@ -46,9 +46,11 @@ void main() {
             march_step(o, u, ray.d.w, m);
         }
     }
-    states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, m.first), uvec4(m.steps, g_evals, m.refine_evals, m.flags),
-                              uvec4(m.depth, m.index, m.crossings, m.base_depth), vec4(m.color, m.last), vec4(m.transmittance, 0.0),
-                              vec4(m.ra, m.rb, float(m.bisections), 0.0));
+    // The flags' upper half holds the refinement's turns and side.
+    uint packed = m.flags | (m.refine_turns << 16u) | (m.refine_side << 24u);
+    states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, m.first), uvec4(m.steps, g_evals, m.refine_evals, packed),
+                              uvec4(m.depth, m.index, m.crossings, m.base_depth), vec4(m.color, m.last), vec4(m.transmittance, m.f_prev),
+                              vec4(m.ra, m.rb, m.ga, m.gb));
     if ((m.flags & FLAG_DONE) == 0u) {
         atomicAdd(active_rays, 1u);
         return;

@@ -84,9 +84,12 @@ gpu_structs! {
     /// `v.w`: the first crossing (transparent rendering).
     /// `light`: transparent rendering's colour so far (rgb) and the last
     /// crossing (w); `trans`: its transmittance so far (rgb).
-    /// `refine`: the bracket of a crossing being refined (x, y; one
-    /// bisection per loop turn, so that no dispatch runs more than one
-    /// pass over the primitives per turn) and its bisections so far (z).
+    /// `trans.w`: f at the previous point.
+    /// `refine`: the bracket of a crossing being refined (x, y; one field
+    /// evaluation per loop turn, so that no dispatch runs more than one
+    /// pass over the primitives per turn) and the field at its ends as the
+    /// interpolation uses them (z, w); the refinement's turns and the end
+    /// its last turn moved are in bits 16-23 and 24-25 of `n.w`.
     struct GpuMarchState { v: Vec4, n: UVec4, node: UVec4, light: Vec4, trans: Vec4, refine: Vec4 }
 
     /// Scene-wide constants. `march`: x iso, y minimum step, z refinement
@@ -134,6 +137,19 @@ pub const FLAG_REFINE_ENTERING: u32 = 32;
 /// refinement is.
 pub const FLAG_ENDED: u32 = 64;
 
+/// Refinement of a crossing (specialization constant `SC_REFINE`; see
+/// `settings::Refinement`): straddling Illinois regula falsi, or bisection.
+pub const REFINE_SECANT: u32 = 0;
+pub const REFINE_BISECTION: u32 = 1;
+/// Secant refinement: turns that interpolate before every other turn bisects.
+pub const SECANT_FREE_TURNS: u32 = 4;
+/// Secant refinement: a point is placed this many tolerances past its
+/// estimate, away from the end the last turn moved.
+pub const SECANT_STRADDLE: f32 = 0.25;
+/// The most turns one refinement takes (a guard: bisection of a float
+/// bracket ends far sooner).
+pub const MAX_REFINE_TURNS: u32 = 128;
+
 /// Crossings recorded per ray in transparent rendering (more are counted).
 pub const MAX_CROSSINGS: u32 = 32;
 
@@ -163,6 +179,7 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
     (8, "SC_TRANSPARENT"),
     (9, "SC_SECONDARY"),
     (10, "SC_INDEX"),
+    (11, "SC_REFINE"),
 ];
 
 /// The spatial index (shaders/include/grid.glsl, index.comp): a primitive
@@ -176,7 +193,7 @@ pub const SCAN_BLOCK: u32 = 256;
 pub const CELL_PAD: f32 = 1e-3;
 
 /// Float constants shared with GLSL, as `(name, value)`.
-pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] = &[("CELL_PAD", CELL_PAD)];
+pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] = &[("CELL_PAD", CELL_PAD), ("SECANT_STRADDLE", SECANT_STRADDLE)];
 
 /// Integer constants shared with GLSL, as `(name, value)`.
 pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
@@ -201,6 +218,10 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("FLAG_REFINE_ENTERING", FLAG_REFINE_ENTERING),
     ("FLAG_ENDED", FLAG_ENDED),
     ("MAX_CROSSINGS", MAX_CROSSINGS),
+    ("REFINE_SECANT", REFINE_SECANT),
+    ("REFINE_BISECTION", REFINE_BISECTION),
+    ("SECANT_FREE_TURNS", SECANT_FREE_TURNS),
+    ("MAX_REFINE_TURNS", MAX_REFINE_TURNS),
     ("MAX_CELLS_PER_PRIMITIVE", MAX_CELLS_PER_PRIMITIVE),
     ("SCAN_BLOCK", SCAN_BLOCK),
 ];

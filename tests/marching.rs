@@ -101,6 +101,7 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
                 growth: 0.0,
                 tolerance: s.refine_tolerance(),
                 quad: QuadSettings::default(),
+                refine: s.marching.refine,
                 transparent: false,
             };
             // Every method, and bottom-up quadratic also without the
@@ -204,6 +205,7 @@ fn transparent_marching_finds_every_crossing_on_gpu_and_f64() {
                     growth: method.default_growth(),
                     tolerance: s.refine_tolerance(),
                     quad: QuadSettings::default(),
+                    refine: s.marching.refine,
                     transparent: true,
                 };
                 let mirror: Vec<Vec<f32>> = rays

@@ -1,13 +1,14 @@
 // The marchers, in the frame of Algorithm 1: from t, with f(t) < 0, each
 // method proposes a step that cannot pass the first root; the minimum step
-// overrides it; a crossing is registered when f >= 0 and refined by
-// bisection (docs/benchmark-protocol.md, "Hits, the minimum step and refinement").
+// overrides it; a crossing is registered when f >= 0 and refined inside
+// its bracket (docs/benchmark-protocol.md, "Hits, the minimum step and
+// refinement"; docs/refinement.md).
 //
 // A march runs in slices of a bounded number of loop turns, its state kept
 // in GpuMarchState between dispatches, so no dispatch runs unboundedly long
 // (lavapipe also caps the loop iterations of one invocation at 65535). A
 // turn makes at most a few passes over the primitives: a step, or one
-// bisection of a crossing's refinement, which resumes across turns and
+// evaluation of a crossing's refinement, which resumes across turns and
 // slices like the march itself.
 #ifndef MARCHERS_GLSL
 #define MARCHERS_GLSL
@@ -31,10 +32,15 @@ struct March {
     float last;         // the last crossing
     vec3 color;         // light gathered so far, front to back
     vec3 transmittance; // what still passes
-    // Refinement (FLAG_REFINING): the crossing lies in (ra, rb].
+    float f_prev;       // f at t_prev (0 where unknown)
+    // Refinement (FLAG_REFINING): the crossing lies in (ra, rb], with g
+    // (f, or -f for a crossing that leaves) negative at ra and not at rb.
     float ra;
     float rb;
-    uint bisections;
+    float ga;           // g at the ends as the interpolation uses them
+    float gb;           //   (ga 0 where unknown)
+    uint refine_side;   // the end the last turn moved: 0 none, 1 ra, 2 rb
+    uint refine_turns;
 };
 
 // The ray being marched (its crossings go to crossings[]).
@@ -47,7 +53,8 @@ float window_cap(float window) {
 }
 
 March march_start(float tmin, float tmax) {
-    March m = March(tmin, tmin, window_cap(tmax - tmin), 0u, 0u, 0u, 0u, 0u, 0u, 0u, -1.0, tmin, vec3(0.0), vec3(1.0), 0.0, 0.0, 0u);
+    March m = March(tmin, tmin, window_cap(tmax - tmin), 0u, 0u, 0u, 0u, 0u, 0u, 0u, -1.0, tmin, vec3(0.0), vec3(1.0), 0.0,
+                    0.0, 0.0, 0.0, 0.0, 0u, 0u);
     // Bisection starts at nodes no longer than the cap.
     if (globals.tuning.z > 0.0 && tmax - tmin > globals.tuning.z) {
         m.base_depth = min(uint(ceil(log2((tmax - tmin) / globals.tuning.z))), 24u);
@@ -57,12 +64,17 @@ March march_start(float tmin, float tmax) {
     return m;
 }
 
-// A crossing between a and b (f changes sign; `entering`: f < 0 at a) is
-// to be refined by bisection, one halving per loop turn (refine_turn).
-void begin_refinement(float a, float b, bool entering, inout March m) {
+// A crossing between a and b (f changes sign; `entering`: f < 0 at a; fa
+// and fb f at the ends, fa 0 where unknown) is to be refined, one field
+// evaluation per loop turn (refine_turn).
+void begin_refinement(float a, float fa, float b, float fb, bool entering, inout March m) {
     m.ra = a;
     m.rb = b;
-    m.bisections = 0u;
+    float ga = entering ? fa : -fa;
+    m.ga = ga < 0.0 ? ga : 0.0;
+    m.gb = entering ? fb : -fb;
+    m.refine_side = 0u;
+    m.refine_turns = 0u;
     m.flags |= FLAG_REFINING;
     if (entering) m.flags |= FLAG_REFINE_ENTERING; else m.flags &= ~FLAG_REFINE_ENTERING;
 }
@@ -128,7 +140,7 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
     if (inside ? f <= 0.0 : f >= 0.0) {
         m.flags |= FLAG_HIT;
         if (m.steps > 1u) {
-            begin_refinement(m.t_prev, m.t, !inside, m);
+            begin_refinement(m.t_prev, m.f_prev, m.t, f, !inside, m);
             if (SC_TRANSPARENT == 0u) return;
         } else if (SC_TRANSPARENT == 0u) {
             m.flags |= FLAG_DONE;
@@ -148,22 +160,49 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
     float safe = step;
     step = max(step, globals.march.y);
     m.t_prev = m.t;
+    m.f_prev = f;
     m.t = min(m.t + step, tmax);
     if (m.t >= tmax && safe >= tmax - m.t_prev) m.flags |= (m.flags & FLAG_REFINING) != 0u ? FLAG_ENDED : FLAG_DONE;
     m.window = window_cap(globals.tuning.x * step);
 }
 
-// One loop turn of a refinement: halve the bracket down to the tolerance
-// (at most 64 times), keeping the crossing in (ra, rb]; then report the
-// end past the crossing, so a crossing is never reported early.
+// One loop turn of a refinement: one evaluation inside the bracket, which
+// keeps the crossing in (ra, rb], until the bracket is within the
+// tolerance; then report the end past the crossing, so a crossing is never
+// reported early. SC_REFINE picks the point: the bracket's middle
+// (bisection), or Illinois regula falsi placed a quarter tolerance past its
+// estimate, so that consecutive points straddle the crossing and close the
+// bracket from both sides; after four such turns every other turn bisects.
+// Mirrored in f64 by settings::Bracket (docs/refinement.md).
 void refine_turn(vec3 o, vec3 u, inout March m) {
-    float mid = 0.5 * (m.ra + m.rb);
-    if (m.bisections < 64u && m.rb - m.ra > globals.march.z && mid > m.ra && mid < m.rb) {
+    float w = m.rb - m.ra;
+    float tol = globals.march.z;
+    float mid = m.ra + 0.5 * w;
+    if (m.refine_turns < MAX_REFINE_TURNS && w > tol && mid > m.ra && mid < m.rb) {
+        float x = mid;
+        if (SC_REFINE == REFINE_SECANT && m.ga < 0.0 && (m.refine_turns < SECANT_FREE_TURNS || (m.refine_turns & 1u) == 0u)) {
+            float margin = SECANT_STRADDLE * tol;
+            float s = m.ra + w * (m.ga / (m.ga - m.gb));
+            s += m.refine_side == 1u ? margin : (m.refine_side == 2u ? -margin : 0.0);
+            s = clamp(s, m.ra + margin, m.rb - margin);
+            if (s > m.ra && s < m.rb) x = s;
+        }
         uint before = g_evals;
-        bool a_inside = (m.flags & FLAG_REFINE_ENTERING) == 0u;
-        if ((field(o + mid * u) >= 0.0) == a_inside) m.ra = mid; else m.rb = mid;
+        float g = field(o + x * u);
+        if ((m.flags & FLAG_REFINE_ENTERING) == 0u) g = -g;
         m.refine_evals += g_evals - before;
-        m.bisections += 1u;
+        if (g < 0.0) {
+            if (m.refine_side == 1u) m.gb *= 0.5;
+            m.ra = x;
+            m.ga = g;
+            m.refine_side = 1u;
+        } else {
+            if (m.refine_side == 2u) m.ga *= 0.5;
+            m.rb = x;
+            m.gb = g;
+            m.refine_side = 2u;
+        }
+        m.refine_turns += 1u;
         return;
     }
     m.flags &= ~FLAG_REFINING;
@@ -221,9 +260,10 @@ void bisection_step(vec3 o, vec3 u, float tmin, float tmax, inout March m) {
         return;
     }
     if (len <= globals.march.y || m.depth >= 30u) {
-        if (field(o + b * u) >= 0.0) {
+        float fb = field(o + b * u);
+        if (fb >= 0.0) {
             m.flags |= FLAG_HIT;
-            begin_refinement(a, b, true, m);
+            begin_refinement(a, 0.0, b, fb, true, m);
             return;
         }
         bisection_advance(m);

@@ -6,10 +6,10 @@ use glam::DVec3;
 
 use super::bound::next_root;
 use super::fold::{field_bound, field_linear, field_raa};
-use super::reference::bisect;
 use super::Field;
 use super::quad::QuadSettings;
 use crate::method::Method;
+use crate::settings::{Bracket, Refinement};
 
 /// Marching settings shared with the GPU.
 #[derive(Clone, Copy, Debug)]
@@ -19,6 +19,8 @@ pub struct MarchSettings {
     pub growth: f64,
     pub tolerance: f64,
     pub quad: QuadSettings,
+    /// How a bracketed crossing is narrowed to `tolerance`.
+    pub refine: Refinement,
     /// Every crossing to the end of the interval (transparent rendering),
     /// not only the first.
     pub transparent: bool,
@@ -50,6 +52,7 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
         return bisection(field, method, o, u, t0, t1, s);
     }
     let (mut t, mut t_prev, mut window) = (t0, t0, t1 - t0);
+    let mut f_prev = 0.0;
     let mut inside = false;
     loop {
         if r.steps >= s.max_steps {
@@ -80,7 +83,7 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
         };
         // A crossing: f >= 0 entering, f <= 0 again leaving.
         if if inside { f <= 0.0 } else { f >= 0.0 } {
-            let tc = if r.steps > 1 { refine_past(&at, t_prev, t, inside, s.tolerance) } else { t };
+            let tc = if r.steps > 1 { refine_past(&at, t_prev, f_prev, t, f, !inside, s) } else { t };
             r.hit = r.hit.or(Some(tc));
             r.crossings.push(tc);
             if !s.transparent {
@@ -94,6 +97,7 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
         let safe = step;
         let step = step.max(s.min_step);
         t_prev = t;
+        f_prev = f;
         t = (t + step).min(t1);
         if t >= t1 && safe >= t1 - t_prev {
             return r;
@@ -102,12 +106,17 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
     }
 }
 
-/// Bisection of a crossing in `[a, b]` (`a_inside` says which side a is
-/// on) to `tolerance`, reported at the bracket's end past the crossing like
-/// the GPU's refinement.
-fn refine_past(at: &impl Fn(f64) -> f64, a: f64, b: f64, a_inside: bool, tolerance: f64) -> f64 {
-    let m = bisect(at, a, b, a_inside, tolerance);
-    (m + 0.5 * tolerance).min(b)
+/// Refinement of a crossing in `(a, b]` (`fa`, `fb` the field there, `fa`
+/// 0 where unknown; `entering`: f < 0 at a) to the tolerance, reported at
+/// the bracket's end past the crossing like the GPU's `refine_turn`.
+#[allow(clippy::too_many_arguments)]
+fn refine_past(at: &impl Fn(f64) -> f64, a: f64, fa: f64, b: f64, fb: f64, entering: bool, s: MarchSettings) -> f64 {
+    let sign = if entering { 1.0 } else { -1.0 };
+    let mut bracket = Bracket::new(a, sign * fa, b, sign * fb);
+    while let Some(x) = bracket.next(s.refine, s.tolerance) {
+        bracket.update(x, sign * at(x));
+    }
+    bracket.b
 }
 
 /// Front-to-back bisection with pruning (the GPU's stackless traversal in
@@ -141,8 +150,9 @@ fn bisection(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
             continue;
         }
         if len <= s.min_step || depth >= 30 {
-            if at(b) >= 0.0 {
-                let tc = refine_past(&at, a, b, false, s.tolerance);
+            let fb = at(b);
+            if fb >= 0.0 {
+                let tc = refine_past(&at, a, 0.0, b, fb, true, s);
                 r.hit = Some(tc);
                 r.crossings.push(tc);
                 return r;

@@ -14,7 +14,7 @@ use anyhow::{Result, bail};
 use ash::vk;
 
 use crate::field::{Field, PrimEval};
-use crate::settings::QuadSettings;
+use crate::settings::{QuadSettings, Refinement};
 use crate::gpu::{Buffer, ComputePipeline, Context, Submitter};
 use crate::layout::{self, GpuBound, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuResult, GpuRay};
 use crate::method::Method;
@@ -47,6 +47,7 @@ struct PipelineKey {
     transparent: bool,
     secondary: bool,
     generic: bool,
+    refine: Refinement,
 }
 
 impl PipelineKey {
@@ -61,6 +62,7 @@ impl PipelineKey {
             transparent: options.transparent,
             secondary: options.secondary,
             generic: options.generic,
+            refine: options.refine,
         }
     }
 }
@@ -179,6 +181,8 @@ pub struct MarchOptions {
     /// groups kept in, instead of only what this scene uses (to measure
     /// what specialisation buys; results are identical).
     pub generic: bool,
+    /// How a bracketed crossing is narrowed to the tolerance.
+    pub refine: Refinement,
 }
 
 impl MarchOptions {
@@ -194,6 +198,7 @@ impl MarchOptions {
             transparent: scene.transparency.is_some(),
             secondary: false,
             generic: false,
+            refine: scene.marching.refine,
         }
     }
 
@@ -309,6 +314,7 @@ fn specialization(scene: &Scene, method: Method, key: &PipelineKey, indexed: boo
         ("SC_TRANSPARENT", u32::from(key.transparent)),
         ("SC_SECONDARY", u32::from(key.secondary)),
         ("SC_INDEX", u32::from(indexed)),
+        ("SC_REFINE", key.refine.shader_id()),
     ];
     values
         .iter()

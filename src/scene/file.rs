@@ -125,11 +125,15 @@ pub struct MarchingFile {
     /// "significant" (peak along the ray at least 1e-3·iso) or "every".
     #[serde(default = "default_validity")]
     pub validity: String,
+    /// How a bracketed crossing is narrowed to the tolerance: "secant"
+    /// (the default) or "bisection" (the protocol's figures before it).
+    #[serde(default)]
+    pub refine: Option<String>,
 }
 
 impl Default for MarchingFile {
     fn default() -> Self {
-        MarchingFile { method: default_method(), min_step: default_min_step(), max_steps: default_max_steps(), growth: None, extension: default_extension(), validity: default_validity() }
+        MarchingFile { method: default_method(), min_step: default_min_step(), max_steps: default_max_steps(), growth: None, extension: default_extension(), validity: default_validity(), refine: None }
     }
 }
 

@@ -13,7 +13,7 @@ pub mod animation;
 
 pub use animation::{Animation, CameraPath, Motion, Scale};
 
-use crate::settings::{QuadSettings, ValidityScope};
+use crate::settings::{QuadSettings, Refinement, ValidityScope};
 use crate::method::Method;
 
 /// Largest kernel weight or slope the GPU's f32 arithmetic takes with room
@@ -72,6 +72,8 @@ pub struct Marching {
     pub growth: Option<f64>,
     /// Settings of the bottom-up quadratic bounds.
     pub quad: QuadSettings,
+    /// How a bracketed crossing is narrowed to the tolerance.
+    pub refine: Refinement,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -344,6 +346,11 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         }
         k => k,
     };
+    let refine = match f.marching.refine.as_deref() {
+        None => Refinement::default(),
+        Some(name) => Refinement::from_name(name)
+            .ok_or_else(|| c.err("marching.refine", format!("expected \"secant\" or \"bisection\", got {name:?}")))?,
+    };
     let validity = match f.marching.validity.as_str() {
         "significant" => ValidityScope::Significant,
         "every" => ValidityScope::Every,
@@ -486,7 +493,14 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         lights,
         iso,
         transparency,
-        marching: Marching { method, min_step, max_steps: f.marching.max_steps, growth, quad: QuadSettings { extension: f.marching.extension, validity } },
+        marching: Marching {
+            method,
+            min_step,
+            max_steps: f.marching.max_steps,
+            growth,
+            quad: QuadSettings { extension: f.marching.extension, validity },
+            refine,
+        },
         groups,
         bounds,
         bounds_explicit: f.bounds.is_some(),
