@@ -36,14 +36,14 @@ void main() {
     // A transparent march steps on while it refines a crossing behind.
     if ((m.flags & FLAG_REFINING) != 0u) from = min(from, m.ra);
     cull_to_ray(o, u, from, ray.d.w);
-    // One step or one bisection of a refinement per turn (slice_steps turns).
+    // One step or one evaluation of a refinement per turn (slice_steps turns).
     for (uint k = 0u; k < push.slice_steps && (m.flags & FLAG_DONE) == 0u; ++k) {
-        if ((m.flags & FLAG_REFINING) != 0u) {
+        if (!bisects) {
+            algorithm1_turn(o, u, ray.d.w, m);
+        } else if ((m.flags & FLAG_REFINING) != 0u) {
             refine_turn(o, u, m);
-        } else if (SC_METHOD == METHOD_LINEAR_BISECTION || SC_METHOD == METHOD_RAA) {
-            bisection_step(o, u, ray.o.w, ray.d.w, m);
         } else {
-            march_step(o, u, ray.d.w, m);
+            bisection_step(o, u, ray.o.w, ray.d.w, m);
         }
     }
     // The flags' upper half holds the refinement's turns and side.

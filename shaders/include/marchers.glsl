@@ -100,35 +100,40 @@ void on_crossing(vec3 o, vec3 u, float tc, bool entering, inout March m) {
     m.last = tc;
 }
 
-// One iteration of Algorithm 1: f at t (from the bound itself where the
-// method has one: forward bounds are exact at t), a crossing check, and a
-// step to the first root of the relevant bound on [t, t + window], at
-// least the minimum step. The next window is `growth` times the step.
-void march_step(vec3 o, vec3 u, float tmax, inout March m) {
-    if (m.steps >= globals.sizes.w) {
-        m.flags |= FLAG_DONE | FLAG_OUT_OF_STEPS;
-        return;
-    }
-    m.steps += 1u;
-    float t_end = min(m.t + m.window, tmax);
-    float len = t_end - m.t;
+// Where a step of Algorithm 1 stands after its fold: f at t (from the
+// bound itself where the method has one: forward bounds are exact at t)
+// and the step proven free of crossings.
+struct StepEval {
     float f;
     float step;
+};
+
+// The fold of one turn on [t0, t1]: f at t0 and, for a step, the step to
+// the first root of the relevant bound on [t0, t1] (at most t1 - t0).
+StepEval step_eval(vec3 o, vec3 u, float t0, float t1) {
+    float len = t1 - t0;
     if (SC_METHOD == METHOD_SPHERE) {
-        f = field(o + m.t * u);
-        step = abs(f) / globals.march.w;                      // Eq. 10
+        float f = field(o + t0 * u);
+        return StepEval(f, abs(f) / globals.march.w);                      // Eq. 10
     } else if (SC_METHOD == METHOD_SEGMENT) {
         float lambda;
-        f = field_and_lipschitz(o, u, m.t, t_end, lambda);   // Eq. 11, docs/benchmark-protocol.md
-        step = lambda > 0.0 ? min(abs(f) / lambda, len) : len;
-    } else {
-        Bound b = method_bound(o, u, m.t, t_end);   // may shorten t_end
-        f = b.v;
-        // Opaque marching steps only from outside (f < 0; f >= 0 is a hit
-        // below), so only the upper bound's root is needed, and the
-        // compiler drops the lower bounds' arithmetic altogether.
-        step = min(SC_TRANSPARENT != 0u || SC_SECONDARY != 0u ? next_root(b) : upper_root(b), t_end - m.t);
+        float f = field_and_lipschitz(o, u, t0, t1, lambda);   // Eq. 11, docs/benchmark-protocol.md
+        return StepEval(f, lambda > 0.0 ? min(abs(f) / lambda, len) : len);
     }
+    Bound b = method_bound(o, u, t0, t1);   // may shorten t1
+    // Opaque marching steps only from outside (f < 0; f >= 0 is a hit
+    // below), so only the upper bound's root is needed, and the compiler
+    // drops the lower bounds' arithmetic altogether.
+    return StepEval(b.v, min(SC_TRANSPARENT != 0u || SC_SECONDARY != 0u ? next_root(b) : upper_root(b), t1 - t0));
+}
+
+// The rest of one iteration of Algorithm 1, from its fold on [m.t, t_end]:
+// a crossing check, and the step, at least the minimum step. The next
+// window is `growth` times the step.
+void step_apply(vec3 o, vec3 u, float tmax, StepEval e, inout March m) {
+    m.steps += 1u;
+    float f = e.f;
+    float step = e.step;
     // A secondary ray (reflected or refracted) starts just past a surface,
     // on the side its sign at the start says, and looks for the first
     // sign change from there.
@@ -166,45 +171,48 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
     m.window = window_cap(globals.tuning.x * step);
 }
 
-// One loop turn of a refinement: one evaluation inside the bracket, which
-// keeps the crossing in (ra, rb], until the bracket is within the
-// tolerance; then report the end past the crossing, so a crossing is never
-// reported early. SC_REFINE picks the point: the bracket's middle
-// (bisection), or Illinois regula falsi placed a quarter tolerance past its
-// estimate, so that consecutive points straddle the crossing and close the
-// bracket from both sides; after four such turns every other turn bisects.
-// Mirrored in f64 by settings::Bracket (docs/refinement.md).
-void refine_turn(vec3 o, vec3 u, inout March m) {
+// A refinement's next point inside its bracket (ra, rb), or false when the
+// bracket is within the tolerance. SC_REFINE picks the point: the
+// bracket's middle (bisection), or Illinois regula falsi placed a quarter
+// tolerance past its estimate, so that consecutive points straddle the
+// crossing and close the bracket from both sides; after four such turns
+// every other turn bisects. Mirrored in f64 by settings::Bracket
+// (docs/refinement.md).
+bool refine_next(March m, out float x) {
     float w = m.rb - m.ra;
     float tol = globals.march.z;
-    float mid = m.ra + 0.5 * w;
-    if (m.refine_turns < MAX_REFINE_TURNS && w > tol && mid > m.ra && mid < m.rb) {
-        float x = mid;
-        if (SC_REFINE == REFINE_SECANT && m.ga < 0.0 && (m.refine_turns < SECANT_FREE_TURNS || (m.refine_turns & 1u) == 0u)) {
-            float margin = SECANT_STRADDLE * tol;
-            float s = m.ra + w * (m.ga / (m.ga - m.gb));
-            s += m.refine_side == 1u ? margin : (m.refine_side == 2u ? -margin : 0.0);
-            s = clamp(s, m.ra + margin, m.rb - margin);
-            if (s > m.ra && s < m.rb) x = s;
-        }
-        uint before = g_evals;
-        float g = field(o + x * u);
-        if ((m.flags & FLAG_REFINE_ENTERING) == 0u) g = -g;
-        m.refine_evals += g_evals - before;
-        if (g < 0.0) {
-            if (m.refine_side == 1u) m.gb *= 0.5;
-            m.ra = x;
-            m.ga = g;
-            m.refine_side = 1u;
-        } else {
-            if (m.refine_side == 2u) m.ga *= 0.5;
-            m.rb = x;
-            m.gb = g;
-            m.refine_side = 2u;
-        }
-        m.refine_turns += 1u;
-        return;
+    x = m.ra + 0.5 * w;
+    if (!(m.refine_turns < MAX_REFINE_TURNS && w > tol && x > m.ra && x < m.rb)) return false;
+    if (SC_REFINE == REFINE_SECANT && m.ga < 0.0 && (m.refine_turns < SECANT_FREE_TURNS || (m.refine_turns & 1u) == 0u)) {
+        float margin = SECANT_STRADDLE * tol;
+        float s = m.ra + w * (m.ga / (m.ga - m.gb));
+        s += m.refine_side == 1u ? margin : (m.refine_side == 2u ? -margin : 0.0);
+        s = clamp(s, m.ra + margin, m.rb - margin);
+        if (s > m.ra && s < m.rb) x = s;
     }
+    return true;
+}
+
+// The bracket after f at its point x: the crossing stays in (ra, rb].
+void refine_update(float x, float f, inout March m) {
+    float g = (m.flags & FLAG_REFINE_ENTERING) != 0u ? f : -f;
+    if (g < 0.0) {
+        if (m.refine_side == 1u) m.gb *= 0.5;
+        m.ra = x;
+        m.ga = g;
+        m.refine_side = 1u;
+    } else {
+        if (m.refine_side == 2u) m.ga *= 0.5;
+        m.rb = x;
+        m.gb = g;
+        m.refine_side = 2u;
+    }
+    m.refine_turns += 1u;
+}
+
+// The bracket is within the tolerance: the crossing is its end past the
+// crossing, so a crossing is never reported early.
+void refine_finish(vec3 o, vec3 u, inout March m) {
     m.flags &= ~FLAG_REFINING;
     if (SC_TRANSPARENT == 0u) {
         m.t = m.rb;
@@ -213,6 +221,51 @@ void refine_turn(vec3 o, vec3 u, inout March m) {
     }
     on_crossing(o, u, m.rb, (m.flags & FLAG_REFINE_ENTERING) != 0u, m);
     if ((m.flags & FLAG_ENDED) != 0u) m.flags |= FLAG_DONE;
+}
+
+// One loop turn of a refinement on its own (the bisection baselines):
+// f at the next point by a pass over the primitives for the value.
+void refine_turn(vec3 o, vec3 u, inout March m) {
+    float x;
+    if (!refine_next(m, x)) {
+        refine_finish(o, u, m);
+        return;
+    }
+    uint before = g_evals;
+    float f = field(o + x * u);
+    m.refine_evals += g_evals - before;
+    refine_update(x, f, m);
+}
+
+// One loop turn of Algorithm 1: a step, or a refinement's evaluation.
+// Both take f from the same fold, the step's on [m.t, t_end] and the
+// refinement's at its point x (f at the start is exact either way: as
+// [x, x + tolerance] for the bounds, as [x, x] for segment tracing, whose
+// slope is then not computed), so that in a SIMD group the rays that step
+// and those that refine make one pass over the primitives together, not
+// one each.
+void algorithm1_turn(vec3 o, vec3 u, float tmax, inout March m) {
+    bool refining = (m.flags & FLAG_REFINING) != 0u;
+    float t0 = m.t;
+    float t1 = min(m.t + m.window, tmax);
+    if (refining) {
+        if (!refine_next(m, t0)) {
+            refine_finish(o, u, m);
+            return;
+        }
+        t1 = SC_METHOD == METHOD_SEGMENT || SC_METHOD == METHOD_SPHERE ? t0 : t0 + globals.march.z;
+    } else if (m.steps >= globals.sizes.w) {
+        m.flags |= FLAG_DONE | FLAG_OUT_OF_STEPS;
+        return;
+    }
+    uint before = g_evals;
+    StepEval e = step_eval(o, u, t0, t1);
+    if (refining) {
+        m.refine_evals += g_evals - before;
+        refine_update(t0, e.f, m);
+    } else {
+        step_apply(o, u, tmax, e, m);
+    }
 }
 
 // Leaves the current bisection node for the next one in front-to-back

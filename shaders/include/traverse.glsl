@@ -277,9 +277,21 @@ Terms poison_terms() {
     return t;
 }
 
-Terms terms_add(Terms a, Terms b) {
-    return Terms(a.v + b.v, a.grad + b.grad, a.slope + b.slope, a.lo + b.lo, a.hi + b.hi, quad_add(a.quad, b.quad), a.raa + b.raa,
-                 a.unknown || b.unknown);
+// The sum of two primitives' terms for `what`: only its fields are added
+// (with a constant `what` the others are no code at all; a float add of
+// zeros is not something the compiler may drop on its own).
+Terms terms_add(uint what, Terms a, Terms b) {
+    a.v += b.v;
+    if (what == EVAL_GRADIENT) a.grad += b.grad;
+    if (what == EVAL_LIPSCHITZ || what == EVAL_TAYLOR) a.slope += b.slope;
+    if (what == EVAL_TAYLOR || what == EVAL_LINEAR) {
+        a.lo += b.lo;
+        a.hi += b.hi;
+    }
+    if (what == EVAL_QUAD) a.quad = quad_add(a.quad, b.quad);
+    if (what == EVAL_RAA) a.raa += b.raa;
+    a.unknown = a.unknown || b.unknown;
+    return a;
 }
 
 Terms taylor_terms(Taylor k) {
@@ -316,7 +328,7 @@ bool quadratic_taylor() {
         case EVAL_GRADIENT: t.v = KIND##_value(pr, q.o, what == EVAL_GRADIENT, t.grad); break;     \
         case EVAL_LIPSCHITZ:                                                                       \
             t.v = KIND##_value(pr, q.o + q.t0 * q.u, false, t.grad);                               \
-            t.slope = KIND##_lipschitz(pr, q.o, q.u, q.t0, q.t1);                                  \
+            if (q.t1 > q.t0) t.slope = KIND##_lipschitz(pr, q.o, q.u, q.t0, q.t1);                 \
             break;                                                                                 \
         case EVAL_TAYLOR: t = taylor_terms(KIND##_taylor(pr, q.o, q.u, q.t0, q.t1, quadratic_taylor())); break; \
         case EVAL_LINEAR: t = linear_terms(KIND##_linear(pr, q.o, q.u, q.t0, len)); break;        \
@@ -427,7 +439,7 @@ Fold fold_field(uint what, Query q, inout float len) {
         // Only Gaussians shorten the interval: a copy keeps len
         // loop-invariant for scenes without them.
         float valid = len;
-        sum = terms_add(sum, prim_terms(what, pr, q, valid));
+        sum = terms_add(what, sum, prim_terms(what, pr, q, valid));
         if (what == EVAL_QUAD && SC_HAS_GAUSSIAN_POINT != 0u) len = valid;
     }
     fold_group(what, sum, len, r);
