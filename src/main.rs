@@ -17,7 +17,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use isomarch::gpu::{Context, ContextOptions, GpuError, list_devices};
 use isomarch::method::{Method, parse_list};
-use isomarch::output::{self, Aov, png_bytes, write_atomic};
+use isomarch::output::{self, Aov, FileFormat, png_bytes, write_atomic};
 use isomarch::render::offscreen::{RenderJob, render_frame, render_to_files};
 use isomarch::scene::Scene;
 use isomarch::bench;
@@ -228,7 +228,9 @@ struct BatchArgs {
 struct RenderArgs {
     /// Scene file (RON).
     scene: PathBuf,
-    /// Shaded image (PNG).
+    /// Shaded image: PNG, or the linear image as 32-bit float OpenEXR
+    /// (.exr; with --aov and no --aov-output, the AOVs go in the same file).
+    /// The format follows the extension; any other is refused.
     #[arg(short, long)]
     output: PathBuf,
     /// Image size as WxH, overriding the scene's camera.resolution.
@@ -549,7 +551,6 @@ fn render(args: RenderArgs) -> Result<()> {
         return render_frames(args, range, scene, size);
     }
     let scene = scene.at_time(check_time(args.batch.time)?);
-    let gpu = args.gpu.open()?;
     let method = scene.marching.method;
     let job = RenderJob {
         heatmap: args.heatmap,
@@ -557,8 +558,11 @@ fn render(args: RenderArgs) -> Result<()> {
         aovs: args.aov,
         aov_output: args.aov_output,
         stats: args.stats,
-        ..RenderJob::new(scene, method, size, args.output, gpu.timeout)
+        ..RenderJob::new(scene, method, size, args.output, args.gpu.timeout()?)
     };
+    // Every output's format from its extension, before any work.
+    job.outputs()?;
+    let gpu = args.gpu.open()?;
     let s = render_to_files(&gpu.ctx, &job)?;
     eprintln!(
         "{}: {}x{} with {} on {}: {:.2} steps/ray, {:.1} evals/ray, hit rate {:.3}{}",
@@ -584,10 +588,12 @@ fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Sc
     let fps = check_fps(batch.fps)?;
     let pattern = output.to_string_lossy().into_owned();
     isomarch::batch::frame_path(&pattern, range.start)?;
+    FileFormat::of("-o", &output, FileFormat::IMAGE)?;
     let shard = isomarch::batch::Shard::resolve(batch.shard.as_deref(), batch.shard_count, |k| std::env::var(k).ok())?;
     let csv = batch.csv.unwrap_or_else(|| {
         output.parent().filter(|p| !p.as_os_str().is_empty()).map_or_else(|| PathBuf::from("frames.csv"), |p| p.join("frames.csv"))
     });
+    FileFormat::of("--csv", &csv, &[FileFormat::Csv])?;
     let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || {
@@ -626,6 +632,9 @@ fn view(args: ViewArgs) -> Result<()> {
         bail!("--preview-ms must be positive, got {}", args.preview_ms);
     }
     let time = check_time(args.time)?;
+    if let Some(path) = &args.screenshot {
+        FileFormat::of("--screenshot", path, &[FileFormat::Png])?;
+    }
     let timeout = args.gpu.timeout()?;
     let options = isomarch::view::ViewOptions {
         method: scene.marching.method,
@@ -707,6 +716,7 @@ fn tradeoff(args: TradeoffArgs) -> Result<()> {
 fn generate(command: GenerateCommand) -> Result<()> {
     match command {
         GenerateCommand::Particles(args) => {
+            FileFormat::of("-o", &args.output, &[FileFormat::Ron])?;
             let p = isomarch::generate::Particles { count: args.count, seed: args.seed, gaussian: args.gaussian, motion: args.motion };
             p.write(&args.output)?;
             println!("{}", p.summary(&args.output));
@@ -751,6 +761,12 @@ fn command_line() -> String {
 fn bench(args: BenchArgs) -> Result<()> {
     let methods = parse_methods(&args.methods)?;
     let rays = check_rays(args.rays)?;
+    if let Some(path) = &args.json {
+        FileFormat::of("--json", path, &[FileFormat::Json])?;
+    }
+    if let Some(path) = &args.heatmap_grid {
+        FileFormat::of("--heatmap-grid", path, &[FileFormat::Png])?;
+    }
     // An animated scene is measured as posed at time 0.
     let scene = args.march.load(&args.scene)?.at_time(0.0);
     let gpu = args.gpu.open()?;
