@@ -9,7 +9,7 @@ use std::sync::Arc;
 use anyhow::{Result, bail};
 use serde::Serialize;
 
-use crate::bench::{accuracy_all, reference_crossings};
+use crate::bench::{accuracy_all, match_window, reference_crossings};
 use crate::gpu::Context;
 use crate::layout::FLAG_HIT;
 use crate::method::Method;
@@ -108,11 +108,9 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, sweep: &Sweep, timeout: std::time:
                 let capped: f64 = errors.iter().map(|e| e.min(1.0)).sum::<f64>() + (misses + false_hits) as f64;
                 let n = rays.len().max(1) as f64;
                 let missed_crossings = transparent.then(|| {
-                    // A crossing may be found up to a minimum step late, and
-                    // refinement leaves it up to its tolerance past the root
-                    // (f32 rounding of t included).
-                    let late = min_step.max(4.0 * s.refine_tolerance()) + 1e-5;
-                    let a = accuracy_all(&out.crossings, &reference, late, 4.0 * s.refine_tolerance() + 1e-5);
+                    // The window of `bench` (bench::match_window).
+                    let (late, early) = match_window(min_step, s.refine_tolerance());
+                    let a = accuracy_all(&out.crossings, &reference, late, early);
                     a.misses as f64 / reference.iter().map(Vec::len).sum::<usize>().max(1) as f64
                 });
                 points.push(Point {
