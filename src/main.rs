@@ -324,6 +324,10 @@ struct TradeoffArgs {
     /// Output folder (default: tradeoff-<scene name>).
     #[arg(short, long)]
     output: Option<PathBuf>,
+    /// Draw the plot again from the folder's tradeoff.csv, without
+    /// marching (for a sweep measured earlier).
+    #[arg(long)]
+    replot: bool,
     #[command(flatten)]
     gpu: GpuArgs,
 }
@@ -661,7 +665,18 @@ fn view(args: ViewArgs) -> Result<()> {
 }
 
 fn tradeoff(args: TradeoffArgs) -> Result<()> {
-    let TradeoffArgs { scene: path, methods, min_steps, max_steps, rays, seed, quick, output, gpu } = args;
+    let TradeoffArgs { scene: path, methods, min_steps, max_steps, rays, seed, quick, output, replot, gpu } = args;
+    let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    let dir = output.unwrap_or_else(|| PathBuf::from(format!("tradeoff-{stem}")));
+    if replot {
+        let csv = dir.join("tradeoff.csv");
+        let text = std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
+        let points = isomarch::tradeoff::read_csv(&text).with_context(|| csv.display().to_string())?;
+        let title = format!("{stem}: time per ray against error (replotted from tradeoff.csv)");
+        isomarch::tradeoff::plot(&points, &title, &dir.join("tradeoff.png"), &dir.join("tradeoff.svg"))?;
+        eprintln!("wrote {}/tradeoff.png, .svg from its tradeoff.csv", dir.display());
+        return Ok(());
+    }
     let scene = Scene::load(&path)?.at_time(0.0);
     let default = if quick { "segment,quadratic-taylor" } else { "sphere,segment,linear-taylor,quadratic-taylor,quadratic" };
     let methods = parse_methods(methods.as_deref().unwrap_or(default))?;
@@ -682,8 +697,6 @@ fn tradeoff(args: TradeoffArgs) -> Result<()> {
         sweep.rays = check_rays(n)?;
     }
     sweep.seed = seed;
-    let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-    let dir = output.unwrap_or_else(|| PathBuf::from(format!("tradeoff-{stem}")));
     let gpu = gpu.open()?;
     let total = sweep.methods.len() * sweep.min_steps.len() * sweep.max_steps.len();
     let bar = indicatif::ProgressBar::new(total as u64);

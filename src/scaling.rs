@@ -24,6 +24,7 @@ use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::bench::{accuracy, match_window, reference_crossings};
+use crate::output::plot::thousands;
 use crate::generate::{Particles, SPACING};
 use crate::gpu::Context;
 use crate::layout::GpuRay;
@@ -332,19 +333,6 @@ fn y_ticks(lo: f64, hi: f64) -> Vec<f64> {
         decade *= 10.0;
     }
     ticks
-}
-
-/// `n` with thousands separated by commas.
-fn thousands(n: usize) -> String {
-    let s = n.to_string();
-    let mut out = String::new();
-    for (i, ch) in s.chars().enumerate() {
-        if i > 0 && (s.len() - i) % 3 == 0 {
-            out.push(',');
-        }
-        out.push(ch);
-    }
-    out
 }
 
 impl Report {
