@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's viewer screenshot: `isomarch view` in a real X window under
+# The viewer screenshot of docs/viewer.md: `isomarch view` in a real X window under
 # Xvfb, captured from the X server (xwd) once the full-resolution frame has
 # landed, then closed with Esc. Usage:
 #   bash scripts/viewer-screenshot.sh [SCENE] [OUT.png] [extra view args...]

@@ -195,7 +195,7 @@ pub fn run(
 
     use anyhow::Context as _;
 
-    use crate::output::{png_bytes, write_atomic};
+    use crate::output::{FileFormat, shaded_bytes, write_atomic};
     use crate::render::{MarchOptions, Renderer};
     use crate::render::rays::camera_rays;
 
@@ -254,7 +254,7 @@ pub fn run(
         }
         let out = crate::render::offscreen::march_frame(&mut renderer, job.method, options, &rays)?;
         let image = crate::output::Frame::from_results(job.width, job.height, &out.results, &pixels);
-        write_atomic(&path, &png_bytes(&image.shaded())?)?;
+        write_atomic(&path, &shaded_bytes(&image, FileFormat::of("-o", &path, FileFormat::IMAGE)?, &[])?)?;
         let stats = crate::render::offscreen::pixel_stats(&out, &pixels);
         // GPU time of this frame's index build: 0 where a static scene
         // reuses the first frame's, empty without an index (or without

@@ -177,6 +177,20 @@ pub struct Accuracy {
     pub max_abs_error: f64,
 }
 
+/// The window around a reference crossing in which a found crossing is that
+/// crossing, as `(late_by, early_by)` for [`accuracy`] and
+/// [`accuracy_all`]; the one definition `bench`, `tradeoff` and `scaling`
+/// count misses and false hits with. Refinement reports a crossing on the
+/// far side of its root, at most the refinement `tolerance` past it; four
+/// tolerances plus 1e-5 (f32 rounding of t on the GPU) cover that and the
+/// reference's own position. A crossing may be found up to a minimum step
+/// late, so the late side is the larger of the two: a hit within the
+/// tolerance is never a miss, however small the minimum step.
+pub fn match_window(min_step: f64, tolerance: f64) -> (f64, f64) {
+    let slack = 4.0 * tolerance;
+    (min_step.max(slack) + 1e-5, slack + 1e-5)
+}
+
 /// Compares hits with the reference: a miss is a reference crossing found
 /// late (beyond `late_by`) or not at all; a false hit is a crossing earlier
 /// than the reference by more than `early_by`, or where it has none.
@@ -334,7 +348,7 @@ fn run_one(
         let out = renderer.march(method, variant.options(scene), ray_set, |done| bar.set_position(done as u64))?;
         bar.finish_and_clear();
         let stats = MarchStats::of(&out.results, out.gpu_ns);
-        let (late, early) = (scene.marching.min_step, scene.refine_tolerance());
+        let (late, early) = match_window(scene.marching.min_step, scene.refine_tolerance());
         let (acc, n) = if scene.transparency.is_some() {
             (accuracy_all(&out.crossings, reference, late, early), reference.iter().map(Vec::len).sum::<usize>().max(1) as f64)
         } else {

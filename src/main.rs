@@ -17,7 +17,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use isomarch::gpu::{Context, ContextOptions, GpuError, list_devices};
 use isomarch::method::{Method, parse_list};
-use isomarch::output::{self, Aov, png_bytes, write_atomic};
+use isomarch::output::{self, Aov, FileFormat, png_bytes, write_atomic};
 use isomarch::render::offscreen::{RenderJob, render_frame, render_to_files};
 use isomarch::scene::Scene;
 use isomarch::bench;
@@ -236,7 +236,9 @@ struct BatchArgs {
 struct RenderArgs {
     /// Scene file (RON).
     scene: PathBuf,
-    /// Shaded image (PNG).
+    /// Shaded image: PNG, or the linear image as 32-bit float OpenEXR
+    /// (.exr; with --aov and no --aov-output, the AOVs go in the same file).
+    /// The format follows the extension; any other is refused.
     #[arg(short, long)]
     output: PathBuf,
     /// Image size as WxH, overriding the scene's camera.resolution.
@@ -330,6 +332,10 @@ struct TradeoffArgs {
     /// Output folder (default: tradeoff-<scene name>).
     #[arg(short, long)]
     output: Option<PathBuf>,
+    /// Draw the plot again from the folder's tradeoff.csv, without
+    /// marching (for a sweep measured earlier).
+    #[arg(long)]
+    replot: bool,
     #[command(flatten)]
     gpu: GpuArgs,
 }
@@ -563,7 +569,6 @@ fn render(args: RenderArgs) -> Result<()> {
         return render_frames(args, range, scene, size);
     }
     let scene = scene.at_time(check_time(args.batch.time)?);
-    let gpu = args.gpu.open()?;
     let method = scene.marching.method;
     let job = RenderJob {
         heatmap: args.heatmap,
@@ -571,8 +576,11 @@ fn render(args: RenderArgs) -> Result<()> {
         aovs: args.aov,
         aov_output: args.aov_output,
         stats: args.stats,
-        ..RenderJob::new(scene, method, size, args.output, gpu.timeout)
+        ..RenderJob::new(scene, method, size, args.output, args.gpu.timeout()?)
     };
+    // Every output's format from its extension, before any work.
+    job.outputs()?;
+    let gpu = args.gpu.open()?;
     let s = render_to_files(&gpu.ctx, &job)?;
     eprintln!(
         "{}: {}x{} with {} on {}: {:.2} steps/ray, {:.1} evals/ray, hit rate {:.3}{}",
@@ -598,10 +606,12 @@ fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Sc
     let fps = check_fps(batch.fps)?;
     let pattern = output.to_string_lossy().into_owned();
     isomarch::batch::frame_path(&pattern, range.start)?;
+    FileFormat::of("-o", &output, FileFormat::IMAGE)?;
     let shard = isomarch::batch::Shard::resolve(batch.shard.as_deref(), batch.shard_count, |k| std::env::var(k).ok())?;
     let csv = batch.csv.unwrap_or_else(|| {
         output.parent().filter(|p| !p.as_os_str().is_empty()).map_or_else(|| PathBuf::from("frames.csv"), |p| p.join("frames.csv"))
     });
+    FileFormat::of("--csv", &csv, &[FileFormat::Csv])?;
     let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || {
@@ -640,6 +650,9 @@ fn view(args: ViewArgs) -> Result<()> {
         bail!("--preview-ms must be positive, got {}", args.preview_ms);
     }
     let time = check_time(args.time)?;
+    if let Some(path) = &args.screenshot {
+        FileFormat::of("--screenshot", path, &[FileFormat::Png])?;
+    }
     let timeout = args.gpu.timeout()?;
     let options = isomarch::view::ViewOptions {
         method: scene.marching.method,
@@ -666,7 +679,18 @@ fn view(args: ViewArgs) -> Result<()> {
 }
 
 fn tradeoff(args: TradeoffArgs) -> Result<()> {
-    let TradeoffArgs { scene: path, methods, min_steps, max_steps, rays, seed, quick, output, gpu } = args;
+    let TradeoffArgs { scene: path, methods, min_steps, max_steps, rays, seed, quick, output, replot, gpu } = args;
+    let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    let dir = output.unwrap_or_else(|| PathBuf::from(format!("tradeoff-{stem}")));
+    if replot {
+        let csv = dir.join("tradeoff.csv");
+        let text = std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
+        let points = isomarch::tradeoff::read_csv(&text).with_context(|| csv.display().to_string())?;
+        let title = format!("{stem}: time per ray against error (replotted from tradeoff.csv)");
+        isomarch::tradeoff::plot(&points, &title, &dir.join("tradeoff.png"), &dir.join("tradeoff.svg"))?;
+        eprintln!("wrote {}/tradeoff.png, .svg from its tradeoff.csv", dir.display());
+        return Ok(());
+    }
     let scene = Scene::load(&path)?.at_time(0.0);
     let default = if quick { "segment,quadratic-taylor" } else { "sphere,segment,linear-taylor,quadratic-taylor,quadratic" };
     let methods = parse_methods(methods.as_deref().unwrap_or(default))?;
@@ -687,8 +711,6 @@ fn tradeoff(args: TradeoffArgs) -> Result<()> {
         sweep.rays = check_rays(n)?;
     }
     sweep.seed = seed;
-    let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-    let dir = output.unwrap_or_else(|| PathBuf::from(format!("tradeoff-{stem}")));
     let gpu = gpu.open()?;
     let total = sweep.methods.len() * sweep.min_steps.len() * sweep.max_steps.len();
     let bar = indicatif::ProgressBar::new(total as u64);
@@ -721,6 +743,7 @@ fn tradeoff(args: TradeoffArgs) -> Result<()> {
 fn generate(command: GenerateCommand) -> Result<()> {
     match command {
         GenerateCommand::Particles(args) => {
+            FileFormat::of("-o", &args.output, &[FileFormat::Ron])?;
             let p = isomarch::generate::Particles { count: args.count, seed: args.seed, gaussian: args.gaussian, motion: args.motion };
             p.write(&args.output)?;
             println!("{}", p.summary(&args.output));
@@ -765,6 +788,12 @@ fn command_line() -> String {
 fn bench(args: BenchArgs) -> Result<()> {
     let methods = parse_methods(&args.methods)?;
     let rays = check_rays(args.rays)?;
+    if let Some(path) = &args.json {
+        FileFormat::of("--json", path, &[FileFormat::Json])?;
+    }
+    if let Some(path) = &args.heatmap_grid {
+        FileFormat::of("--heatmap-grid", path, &[FileFormat::Png])?;
+    }
     // An animated scene is measured as posed at time 0.
     let scene = args.march.load(&args.scene)?.at_time(0.0);
     let gpu = args.gpu.open()?;

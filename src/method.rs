@@ -69,7 +69,7 @@ impl Method {
     /// Algorithm 1's interval growth k: the next candidate interval is k
     /// times the last step. Segment tracing's 1.5 is pinned by
     /// docs/benchmark-protocol.md; linear Taylor takes 3, the best of the sweep in the
-    /// README (`scripts/growth-sweep.sh`); the others the paper's k = 2.
+    /// docs/benchmarks.md (`scripts/growth-sweep.sh`); the others the paper's k = 2.
     pub fn default_growth(self) -> f64 {
         match self {
             Method::Sphere | Method::Segment => 1.5,

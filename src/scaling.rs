@@ -23,7 +23,8 @@ use std::time::Duration;
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::bench::{accuracy, reference_crossings};
+use crate::bench::{accuracy, match_window, reference_crossings};
+use crate::output::plot::thousands;
 use crate::generate::{Particles, SPACING};
 use crate::gpu::Context;
 use crate::layout::GpuRay;
@@ -237,7 +238,8 @@ pub fn run(ctx: &Arc<Context>, sweep: &Sweep, timeout: Duration, command: String
             ns[c][m].push(gpu_ns / sweep.rays as f64);
             if first[c][m].is_none() {
                 let stats = MarchStats::of(&out.results, out.gpu_ns);
-                let a = accuracy(&out.results, &p.reference, p.scene.marching.min_step, p.scene.refine_tolerance());
+                let (late, early) = match_window(p.scene.marching.min_step, p.scene.refine_tolerance());
+                let a = accuracy(&out.results, &p.reference, late, early);
                 let n = sweep.rays as f64;
                 first[c][m] = Some((stats, a.misses as f64 / n, a.false_hits as f64 / n));
             }
@@ -321,19 +323,6 @@ fn y_ticks(lo: f64, hi: f64) -> Vec<f64> {
         decade *= 10.0;
     }
     ticks
-}
-
-/// `n` with thousands separated by commas.
-fn thousands(n: usize) -> String {
-    let s = n.to_string();
-    let mut out = String::new();
-    for (i, ch) in s.chars().enumerate() {
-        if i > 0 && (s.len() - i) % 3 == 0 {
-            out.push(',');
-        }
-        out.push(ch);
-    }
-    out
 }
 
 impl Report {

@@ -9,7 +9,7 @@ use std::sync::Arc;
 use anyhow::{Result, bail};
 use serde::Serialize;
 
-use crate::bench::{accuracy_all, reference_crossings};
+use crate::bench::{accuracy_all, match_window, reference_crossings};
 use crate::gpu::Context;
 use crate::layout::FLAG_HIT;
 use crate::method::Method;
@@ -108,11 +108,9 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, sweep: &Sweep, timeout: std::time:
                 let capped: f64 = errors.iter().map(|e| e.min(1.0)).sum::<f64>() + (misses + false_hits) as f64;
                 let n = rays.len().max(1) as f64;
                 let missed_crossings = transparent.then(|| {
-                    // A crossing may be found up to a minimum step late, and
-                    // refinement leaves it up to its tolerance past the root
-                    // (f32 rounding of t included).
-                    let late = min_step.max(4.0 * s.refine_tolerance()) + 1e-5;
-                    let a = accuracy_all(&out.crossings, &reference, late, 4.0 * s.refine_tolerance() + 1e-5);
+                    // The window of `bench` (bench::match_window).
+                    let (late, early) = match_window(min_step, s.refine_tolerance());
+                    let a = accuracy_all(&out.crossings, &reference, late, early);
                     a.misses as f64 / reference.iter().map(Vec::len).sum::<usize>().max(1) as f64
                 });
                 points.push(Point {
@@ -178,6 +176,45 @@ pub fn csv(points: &[Point]) -> String {
     s
 }
 
+/// Reads the points back from [`csv`]'s text (to plot a sweep again
+/// without marching it); errors name the line.
+pub fn read_csv(text: &str) -> Result<Vec<Point>> {
+    let mut lines = text.lines().enumerate();
+    let header = lines.next().map(|(_, l)| l).unwrap_or_default();
+    if header != csv(&[]).trim_end() {
+        bail!("line 1: not the header of a tradeoff CSV");
+    }
+    lines
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, line)| {
+            let f: Vec<&str> = line.split(',').collect();
+            let at = || format!("line {}", i + 1);
+            if f.len() != 15 {
+                bail!("{}: {} fields, expected 15", at(), f.len());
+            }
+            let num = |k: usize| f[k].parse::<f64>().map_err(|e| anyhow::anyhow!("{}: field {}: {e}", at(), k + 1));
+            let opt = |k: usize| if f[k].is_empty() { Ok(None) } else { num(k).map(Some) };
+            Ok(Point {
+                method: f[0].to_string(),
+                min_step: num(1)?,
+                max_steps: f[2].parse().map_err(|e| anyhow::anyhow!("{}: field 3: {e}", at()))?,
+                ns_per_ray: opt(3)?,
+                steps_per_ray: num(4)?,
+                evals_per_ray: num(5)?,
+                mean_error: num(6)?,
+                p99_error: num(7)?,
+                max_error: num(8)?,
+                miss_rate: num(9)?,
+                false_hit_rate: num(10)?,
+                missed_crossings: opt(11)?,
+                error: num(12)?,
+                pareto: f[13] == "true",
+                out_of_steps_rate: num(14)?,
+            })
+        })
+        .collect()
+}
+
 /// Plots time per ray (log) against the error (log), one colour per
 /// method, the Pareto front joined and its points ringed, into `png` and
 /// `svg` (atomically).
@@ -189,6 +226,7 @@ fn draw<B: plotters::prelude::DrawingBackend>(points: &[Point], title: &str, bac
 where
     B::ErrorType: 'static,
 {
+    use crate::output::plot::{LegendMark, decade_axis, decade_label, decade_minors, draw_legend, plot_err};
     use plotters::prelude::*;
     let time = |p: &Point| p.ns_per_ray.unwrap_or(p.steps_per_ray).max(1e-3);
     // Errors of 0 (every hit exact to the tolerance) sit on the floor.
@@ -199,57 +237,61 @@ where
     }
     let (t0, t1) = points.iter().map(time).fold((f64::INFINITY, 0.0f64), |(a, b), t| (a.min(t), b.max(t)));
     let (e0, e1) = points.iter().map(err).fold((f64::INFINITY, 0.0f64), |(a, b), e| (a.min(e), b.max(e)));
+    // Whole decades on both axes, each labelled; the error is at most 1,
+    // so its axis ends at 2 rather than a decade higher.
+    let (x_range, x_decades) = decade_axis(t0, t1, 1.15);
+    let (mut y_range, mut y_decades) = decade_axis(e0, e1, 1.2);
+    if e1 <= 1.0 && y_range.end > 2.0 {
+        y_range.end = 2.0;
+        y_decades.retain(|&d| d <= 1.0);
+    }
+    let (x_minor, y_minor) = (decade_minors(&x_range, &x_decades), decade_minors(&y_range, &y_decades));
     let root = backend.into_drawing_area();
-    root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
+    root.fill(&WHITE).map_err(plot_err)?;
+    let root = root.titled(title, ("sans-serif", 20)).map_err(plot_err)?;
+    // The legend gets its own column right of the chart: it covers no data.
+    let (plot_area, legend_area) = root.split_horizontally(root.dim_in_pixel().0 as i32 - 190);
     let x_desc = if points.iter().all(|p| p.ns_per_ray.is_some()) { "GPU time per ray (ns)" } else { "steps per ray" };
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(16)
-        .x_label_area_size(44)
-        .y_label_area_size(70)
-        .build_cartesian_2d((t0 / 1.3..t1 * 1.3).log_scale(), (e0 / 2.0..e1 * 2.0).log_scale())
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut chart = ChartBuilder::on(&plot_area)
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(72)
+        .build_cartesian_2d(
+            x_range.log_scale().with_key_points(x_decades).with_light_points(x_minor),
+            y_range.log_scale().with_key_points(y_decades).with_light_points(y_minor),
+        )
+        .map_err(plot_err)?;
     chart
         .configure_mesh()
         .x_desc(x_desc)
         .y_desc("error (relative; a miss counts 1)")
-        .x_label_formatter(&|v| format!("{v:.0}"))
-        .y_label_formatter(&|v| format!("{v:.0e}"))
-        .label_style(("sans-serif", 13))
+        .x_label_formatter(&|v| decade_label(*v))
+        .y_label_formatter(&|v| decade_label(*v))
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 15))
         .draw()
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+        .map_err(plot_err)?;
     let mut methods: Vec<&str> = Vec::new();
     for p in points {
         if !methods.contains(&p.method.as_str()) {
             methods.push(&p.method);
         }
     }
+    let mut legend = Vec::new();
     for (i, m) in methods.iter().enumerate() {
         let color = Palette99::pick(i).to_rgba();
         chart
             .draw_series(points.iter().filter(|p| p.method == *m).map(|p| Circle::new((time(p), err(p)), 4, color.filled())))
-            .map_err(|e| anyhow::anyhow!("{e}"))?
-            .label(*m)
-            .legend(move |(x, y)| Circle::new((x, y), 4, color.filled()));
+            .map_err(plot_err)?;
+        legend.push((m.to_string(), LegendMark::Dot(color)));
     }
     let mut front: Vec<(f64, f64)> = points.iter().filter(|p| p.pareto).map(|p| (time(p), err(p))).collect();
     front.sort_by(|a, b| a.0.total_cmp(&b.0));
-    chart
-        .draw_series(LineSeries::new(front.clone(), BLACK.stroke_width(2)))
-        .map_err(|e| anyhow::anyhow!("{e}"))?
-        .label("Pareto front")
-        .legend(|(x, y)| PathElement::new(vec![(x - 8, y), (x + 8, y)], BLACK.stroke_width(2)));
-    chart
-        .draw_series(front.iter().map(|&(x, y)| Circle::new((x, y), 7, BLACK.stroke_width(1))))
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .draw()
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
+    chart.draw_series(LineSeries::new(front.clone(), BLACK.stroke_width(2))).map_err(plot_err)?;
+    chart.draw_series(front.iter().map(|&(x, y)| Circle::new((x, y), 7, BLACK.stroke_width(1)))).map_err(plot_err)?;
+    legend.push(("Pareto front".to_string(), LegendMark::RingedLine(BLACK.to_rgba())));
+    draw_legend(&legend_area, &legend)?;
+    root.present().map_err(plot_err)?;
     Ok(())
 }
 
@@ -275,6 +317,27 @@ mod tests {
             pareto: false,
             out_of_steps_rate: 0.0,
         }
+    }
+
+    #[test]
+    fn the_csv_reads_back() {
+        let mut ps = vec![point(1234.5, 0.5), point(2.0, 1.25e-6)];
+        ps[1].missed_crossings = Some(0.25);
+        ps[1].ns_per_ray = None;
+        mark_pareto(&mut ps);
+        let text = csv(&ps);
+        assert_eq!(csv(&read_csv(&text).unwrap()), text);
+        assert!(read_csv("method,x\n").is_err());
+        assert!(read_csv(&text.replace("1234.5", "fast")).unwrap_err().to_string().contains("line 2"));
+    }
+
+    #[test]
+    fn every_decade_of_the_axes_is_a_key_point() {
+        let (range, decades) = crate::output::plot::decade_axis(2300.0, 260_000.0, 1.15);
+        assert_eq!(range, 1e3..1e6);
+        assert_eq!(decades, vec![1e3, 1e4, 1e5, 1e6]);
+        let labels: Vec<String> = [1e-7, 1e-1, 1.0, 10.0, 1000.0, 1e6].iter().map(|&v| crate::output::plot::decade_label(v)).collect();
+        assert_eq!(labels, ["1e-7", "1e-1", "1", "10", "1,000", "1,000,000"]);
     }
 
     #[test]

@@ -193,5 +193,21 @@ fn tradeoff_writes_its_csv_and_plot() {
     let png = image::open(dir.join("tradeoff.png")).unwrap().to_rgb8();
     let distinct: std::collections::HashSet<_> = png.pixels().map(|p| p.0).collect();
     assert!(distinct.len() > 10, "a blank plot");
-    assert!(std::fs::read_to_string(dir.join("tradeoff.svg")).unwrap().contains("<svg"));
+    let svg = std::fs::read_to_string(dir.join("tradeoff.svg")).unwrap();
+    assert!(svg.contains("<svg"));
+    let texts: Vec<&str> = svg.split("<text").skip(1).filter_map(|t| t.split_once('>')).map(|(_, rest)| rest.split("</text>").next().unwrap().trim()).collect();
+    // Every decade the times and the errors span is labelled on its axis.
+    let span = |c: &str| rows.iter().map(|r| num(r, c).max(1e-7)).fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+    for c in ["ns_per_ray", "error"] {
+        let (lo, hi) = span(c);
+        for k in lo.log10().floor() as i32..=hi.log10().ceil() as i32 {
+            let label = isomarch::output::plot::decade_label(10f64.powi(k));
+            assert!(texts.contains(&label.as_str()), "{c}: decade {label} not labelled: {texts:?}");
+        }
+    }
+    // --replot draws the plot again from the CSV alone.
+    std::fs::remove_file(dir.join("tradeoff.png")).unwrap();
+    let run = Command::new(bin()).args(["tradeoff", "scenes/fig10.ron", "--replot", "-o"]).arg(&dir).current_dir(repo_root()).output().unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(image::open(dir.join("tradeoff.png")).is_ok(), "--replot wrote no PNG");
 }

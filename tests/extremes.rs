@@ -22,7 +22,7 @@ use isomarch::render::rays::protocol_rays;
 use isomarch::scene::{Kernel, Primitive, Scene};
 use isomarch::Method;
 
-/// Measured regression bounds (of 256 rays); see the README's limits.
+/// Measured regression bounds (of 256 rays); see docs/limits.md.
 const SPHERE_SHARP_GAUSSIAN_MISSES: usize = 256;
 const BISECTION_TINY_STEP_MISSES: usize = 13;
 
@@ -162,7 +162,7 @@ fn coincident_blobs_iso_extremes_and_gaussian_scales() {
         let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
         // Sphere tracing's one global Lipschitz bound is e^s times too
         // large for a sharp Gaussian: it crawls at the minimum step and
-        // runs out of steps (measured: a regression bound, README limits).
+        // runs out of steps (measured: a regression bound, docs/limits.md).
         let sharp = name == "huge Gaussian s";
         check_all(&ctx, &s, &rays, tol, tol, |m| if sharp && m == Method::Sphere { SPHERE_SHARP_GAUSSIAN_MISSES } else { 0 }, &name);
     }
@@ -299,7 +299,7 @@ fn scenes_far_from_the_origin_keep_their_precision() {
                 let job = RenderJob::new(far.clone(), method, size, std::path::PathBuf::new(), std::time::Duration::from_secs(300));
                 let (frame, _) = render_frame(&ctx, &job).unwrap();
                 let (worst, disagree) = image_error(&frame, &pixels, &reference);
-                // Printed for the README (cargo test -- --nocapture).
+                // Printed for docs/benchmarks.md (cargo test -- --nocapture).
                 eprintln!("far scene {seed} at {offset}: {method} worst {worst:.2e} = {:.2e} of the scene", worst / near.bounds.diagonal());
                 assert!(
                     disagree == 0 && worst <= tol,

@@ -100,3 +100,78 @@ fn render_writes_image_heatmap_exr_and_stats() {
     let finite = z.values_as_f32().filter(|v| v.is_finite()).count();
     assert_eq!(finite, (hit_rate * 48.0 * 40.0).round() as usize, "depth is finite exactly where rays hit");
 }
+
+/// Every output flag takes its format from the extension: an unknown one is
+/// refused in one line before any work (before the device is even opened:
+/// a device that does not exist is not what the error names), and nothing
+/// is written.
+#[test]
+fn an_output_with_an_unknown_extension_is_refused_before_any_work() {
+    let dir = scratch("output-extensions");
+    let d = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    let cases: Vec<(Vec<String>, &str, &str)> = vec![
+        (vec!["render".into(), "scenes/default.ron".into(), "-o".into(), d("out.txt")], "-o", ".txt"),
+        (vec!["render".into(), "scenes/default.ron".into(), "-o".into(), d("out")], "-o", "without an extension"),
+        (vec!["render".into(), "scenes/default.ron".into(), "-o".into(), d("a.png"), "--heatmap".into(), d("h.jpg")], "--heatmap", ".jpg"),
+        (vec!["render".into(), "scenes/default.ron".into(), "-o".into(), d("a.png"), "--aov".into(), "depth".into(), "--aov-output".into(), d("d.png")], "--aov-output", ".png"),
+        (vec!["render".into(), "scenes/default.ron".into(), "-o".into(), d("a.png"), "--stats".into(), d("s.txt")], "--stats", ".txt"),
+        (vec!["render".into(), "scenes/default.ron".into(), "--frames".into(), "0..2".into(), "-o".into(), d("f_##.tif")], "-o", ".tif"),
+        (vec!["render".into(), "scenes/default.ron".into(), "--frames".into(), "0..2".into(), "-o".into(), d("f_##.png"), "--csv".into(), d("c.txt")], "--csv", ".txt"),
+        (vec!["bench".into(), "scenes/default.ron".into(), "--rays".into(), "64".into(), "--json".into(), d("b.txt")], "--json", ".txt"),
+        (vec!["bench".into(), "scenes/default.ron".into(), "--rays".into(), "64".into(), "--heatmap-grid".into(), d("g.exr")], "--heatmap-grid", ".exr"),
+        (vec!["view".into(), "scenes/default.ron".into(), "--screenshot".into(), d("s.bmp")], "--screenshot", ".bmp"),
+        (vec!["generate".into(), "particles".into(), "--count".into(), "10".into(), "-o".into(), d("p.txt")], "-o", ".txt"),
+    ];
+    for (args, flag, ext) in cases {
+        let mut command = Command::new(bin());
+        command.args(&args).current_dir(repo_root());
+        if args[0] != "generate" {
+            command.args(["--device", "no-such-device"]);
+        }
+        let run = command.output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{args:?}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{args:?}: not one line: {stderr}");
+        assert!(!stderr.contains("panicked") && !stderr.contains("no-such-device"), "{args:?}: {stderr}");
+        assert!(stderr.contains(&format!("error: {flag} ")) && stderr.contains(ext), "{args:?}: {stderr}");
+    }
+    let written: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+    assert!(written.is_empty(), "files written: {written:?}");
+}
+
+/// `-o x.exr` writes the linear image as 32-bit float OpenEXR (R, G, B),
+/// whose sRGB encoding is the PNG; with `--aov` and no `--aov-output` the
+/// AOVs go into the same file. The extension's case does not matter.
+#[test]
+fn an_exr_output_holds_the_linear_image() {
+    let dir = scratch("output-exr");
+    let render = |out: &str, extra: &[&str]| {
+        let run = Command::new(bin())
+            .args(["render", "scenes/default.ron", "--size", "40x32", "-o"])
+            .arg(dir.join(out))
+            .args(extra)
+            .current_dir(repo_root())
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{out}: {}", String::from_utf8_lossy(&run.stderr));
+    };
+    render("img.png", &[]);
+    render("img.EXR", &["--aov", "depth"]);
+    let files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+    assert_eq!(files.len(), 2, "one EXR holds image and AOVs: {files:?}");
+    let png = image::open(dir.join("img.png")).unwrap().to_rgb8();
+    let exr = exr::prelude::read_all_flat_layers_from_file(dir.join("img.EXR")).unwrap();
+    let channels = &exr.layer_data[0].channel_data.list;
+    let channel = |name: &str| -> Vec<f32> {
+        channels.iter().find(|c| c.name.to_string() == name).unwrap_or_else(|| panic!("no channel {name}")).sample_data.values_as_f32().collect()
+    };
+    let (r, g, b, z) = (channel("R"), channel("G"), channel("B"), channel("Z"));
+    assert_eq!(r.len(), 40 * 32);
+    let mut lit = 0;
+    for (i, p) in png.pixels().enumerate() {
+        let encoded = [r[i], g[i], b[i]].map(isomarch::output::srgb);
+        assert_eq!(encoded, p.0, "pixel {i}: the EXR's linear colour does not encode to the PNG's");
+        lit += usize::from(z[i].is_finite());
+    }
+    assert!(lit > 100 && lit < 40 * 32, "{lit} pixels hit: not a picture of blobs");
+}

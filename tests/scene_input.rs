@@ -143,3 +143,127 @@ fn bad_motion_and_transparency_are_rejected() {
     assert!(matches!(posed.groups[0][0], isomarch::scene::Primitive::Point { center, .. } if center == glam::DVec3::new(1.0, 0.0, 0.0)));
     assert!((posed.camera.eye - s.camera.eye).length() > 1.0 && (posed.camera.eye.length() - s.camera.eye.length()).abs() < 1e-9);
 }
+
+/// Every optional field of docs/scene-format.md, as (its name in the
+/// format, GOOD's text to replace, the replacement with the value written
+/// plain, the same with `Some(..)`): both spellings must give one scene,
+/// and not GOOD's.
+const OPTIONAL_FIELDS: &[(&str, &str, &str, &str)] = &[
+    ("weight", "Compact(radius: 2.0)", "Compact(radius: 2.0, weight: 2.0)", "Compact(radius: 2.0, weight: Some(2.0))"),
+    ("weight", "Compact(radius: 2.0)", "Gaussian(r: 1.0, s: 2.0, weight: 3.0)", "Gaussian(r: 1.0, s: 2.0, weight: Some(3.0))"),
+    (
+        "weight",
+        "iso: 0.5,",
+        "iso: 0.5, bounds: (min: (-3.0, -3.0, -3.0), max: (3.0, 3.0, 3.0)), groups: [(primitives: [Plane(normal: (0.0, 1.0, 0.0), offset: -1.0, radius: 0.5, weight: 2.0)])],",
+        "iso: 0.5, bounds: (min: (-3.0, -3.0, -3.0), max: (3.0, 3.0, 3.0)), groups: [(primitives: [Plane(normal: (0.0, 1.0, 0.0), offset: -1.0, radius: 0.5, weight: Some(2.0))])],",
+    ),
+    ("path", "resolution: (16, 16))", "resolution: (16, 16), path: Orbit(period: 8.0))", "resolution: (16, 16), path: Some(Orbit(period: 8.0)))"),
+    (
+        "path",
+        "resolution: (16, 16))",
+        "resolution: (16, 16), path: Keyframes([(0.0, (0.0, 0.0, 8.0)), (1.0, (1.0, 0.0, 8.0))]))",
+        "resolution: (16, 16), path: Some(Keyframes([(0.0, (0.0, 0.0, 8.0)), (1.0, (1.0, 0.0, 8.0))])))",
+    ),
+    ("transparency", "iso: 0.5,", "iso: 0.5, transparency: (opacity: 0.3),", "iso: 0.5, transparency: Some((opacity: 0.3)),"),
+    ("ior", "iso: 0.5,", "iso: 0.5, transparency: (ior: 1.4),", "iso: 0.5, transparency: (ior: Some(1.4)),"),
+    ("growth", "iso: 0.5,", "iso: 0.5, marching: (growth: 2.5),", "iso: 0.5, marching: (growth: Some(2.5)),"),
+    (
+        "bounds",
+        "iso: 0.5,",
+        "iso: 0.5, bounds: (min: (-3.0, -3.0, -3.0), max: (3.0, 3.0, 3.0)),",
+        "iso: 0.5, bounds: Some((min: (-3.0, -3.0, -3.0), max: (3.0, 3.0, 3.0))),",
+    ),
+    (
+        "motion",
+        "Compact(radius: 2.0))",
+        "Compact(radius: 2.0), motion: Sine(axis: (0.0, 1.0, 0.0), amplitude: 0.5, period: 2.0))",
+        "Compact(radius: 2.0), motion: Some(Sine(axis: (0.0, 1.0, 0.0), amplitude: 0.5, period: 2.0)))",
+    ),
+    (
+        "motion",
+        "Compact(radius: 2.0))",
+        "Compact(radius: 2.0), motion: Keyframes([(0.0, (0.0, 0.0, 0.0)), (2.0, (1.0, 0.0, 0.0))]))",
+        "Compact(radius: 2.0), motion: Some(Keyframes([(0.0, (0.0, 0.0, 0.0)), (2.0, (1.0, 0.0, 0.0))])))",
+    ),
+    (
+        "radius_scale",
+        "Compact(radius: 2.0))",
+        "Compact(radius: 2.0), radius_scale: Sine(amplitude: 0.2, period: 2.0))",
+        "Compact(radius: 2.0), radius_scale: Some(Sine(amplitude: 0.2, period: 2.0)))",
+    ),
+    (
+        "radius_scale",
+        "Compact(radius: 2.0))",
+        "Compact(radius: 2.0), radius_scale: Keyframes([(0.0, 1.0), (2.0, 1.5)]))",
+        "Compact(radius: 2.0), radius_scale: Some(Keyframes([(0.0, 1.0), (2.0, 1.5)])))",
+    ),
+];
+
+#[test]
+fn every_optional_field_takes_its_value_plain_or_as_some() {
+    let good = Scene::parse(GOOD, "good.ron").unwrap();
+    for &(field, from, plain, some) in OPTIONAL_FIELDS {
+        assert_eq!(GOOD.matches(from).count(), 1, "{field}: {from:?} is not once in GOOD");
+        // The Plane case replaces GOOD's groups: drop the originals after the new ones.
+        let edit = |to: &str| {
+            let text = GOOD.replacen(from, to, 1);
+            if to.contains("Plane(") { text.replacen("    groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))])],\n", "", 1) } else { text }
+        };
+        let a = Scene::parse(&edit(plain), "plain.ron").unwrap_or_else(|e| panic!("{field} written plain refused: {e}"));
+        let b = Scene::parse(&edit(some), "some.ron").unwrap_or_else(|e| panic!("{field} written as Some(..) refused: {e}"));
+        assert_eq!((a.source.clone(), b.source.clone()), ("plain.ron".to_string(), "some.ron".to_string()));
+        let (a, b) = (Scene { source: String::new(), ..a }, Scene { source: String::new(), ..b });
+        assert_eq!(a, b, "{field}: the two spellings give different scenes");
+        assert_ne!(a, Scene { source: String::new(), ..good.clone() }, "{field}: the value was not read");
+    }
+}
+
+/// The list above covers every optional field the format has, and the
+/// format document names each of them.
+#[test]
+fn the_optional_fields_tested_are_every_option_in_the_format() {
+    let source = std::fs::read_to_string(repo_root().join("src/scene/file.rs")).unwrap();
+    let doc = std::fs::read_to_string(repo_root().join("docs/scene-format.md")).unwrap();
+    let mut in_format: Vec<&str> = source
+        .lines()
+        .filter(|l| l.contains(": Option<"))
+        .map(|l| l.trim().trim_start_matches("pub ").split(':').next().unwrap())
+        .collect();
+    in_format.sort();
+    in_format.dedup();
+    let mut tested: Vec<&str> = OPTIONAL_FIELDS.iter().map(|c| c.0).collect();
+    tested.dedup();
+    tested.sort();
+    tested.dedup();
+    assert_eq!(tested, in_format, "an optional field of src/scene/file.rs has no test of both spellings");
+    for field in in_format {
+        assert!(doc.contains(&format!("{field}:")), "docs/scene-format.md does not show `{field}`");
+    }
+}
+
+/// The format document's example is a scene that loads, written as the
+/// document recommends (plain optional values).
+#[test]
+fn the_format_documents_example_loads() {
+    let doc = std::fs::read_to_string(repo_root().join("docs/scene-format.md")).unwrap();
+    let start = doc.find("```ron\n").expect("docs/scene-format.md has no ```ron example") + "```ron\n".len();
+    let end = start + doc[start..].find("```").unwrap();
+    let s = Scene::parse(&doc[start..end], "docs/scene-format.md").unwrap_or_else(|e| panic!("{e}"));
+    assert!(s.transparency.is_some_and(|t| t.ior.is_some()), "the example's transparency or ior was lost");
+    assert_eq!(s.marching.growth, Some(2.0));
+    let a = &s.animation;
+    assert!(a.camera.is_some() && a.primitives.len() == 1 && a.radii.len() == 1, "the example's path, motion or radius_scale was lost");
+}
+
+#[test]
+fn a_syntax_error_inside_a_field_names_its_path() {
+    let e = error_of(&GOOD.replace("Compact(radius: 2.0)", "Compact(radius: 2.0, weight: true)"));
+    assert_mentions(&e, &["bad.ron", "line 4", "groups[0].primitives[0].kernel.weight", "Expected float"]);
+    let e = error_of(&GOOD.replace("iso: 0.5,", "iso: 0.5, transparency: (ior: \"glass\"),"));
+    assert_mentions(&e, &["bad.ron", "line 3", "transparency.ior"]);
+    let e = error_of(&GOOD.replace("resolution: (16, 16)", "resolution: (16, 16.5)"));
+    assert_mentions(&e, &["bad.ron", "line 2", "camera.resolution"]);
+    // Outside any field there is no path, only the position.
+    let e = error_of(&format!("{GOOD} trailing"));
+    assert_mentions(&e, &["bad.ron", "line 5", "trailing"]);
+}

@@ -73,6 +73,60 @@ pub fn srgb(linear: f32) -> u8 {
     (s * 255.0 + 0.5) as u8
 }
 
+/// A file format, chosen by an output path's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FileFormat {
+    Png,
+    /// OpenEXR, 32-bit float: the linear image (and AOVs).
+    Exr,
+    Json,
+    Csv,
+    Ron,
+}
+
+impl FileFormat {
+    pub const IMAGE: &[FileFormat] = &[FileFormat::Png, FileFormat::Exr];
+
+    pub fn extension(self) -> &'static str {
+        match self {
+            FileFormat::Png => "png",
+            FileFormat::Exr => "exr",
+            FileFormat::Json => "json",
+            FileFormat::Csv => "csv",
+            FileFormat::Ron => "ron",
+        }
+    }
+
+    /// The format of `path`, given to `flag`, from its extension (any
+    /// case), which must be one of `allowed`; otherwise a one-line error
+    /// naming the flag, the path and the extensions allowed. Commands call
+    /// this for every output before any work.
+    pub fn of(flag: &str, path: &Path, allowed: &[FileFormat]) -> Result<FileFormat> {
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        if let Some(f) = allowed.iter().find(|f| ext.as_deref() == Some(f.extension())) {
+            return Ok(*f);
+        }
+        let names: Vec<String> = allowed.iter().map(|f| format!(".{}", f.extension())).collect();
+        let names = match names.split_last() {
+            Some((last, [])) => last.clone(),
+            Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+            None => String::new(),
+        };
+        let got = ext.map_or("a file without an extension".to_string(), |e| format!("a .{e} file"));
+        bail!("{flag} {}: cannot write {got}: the format follows the extension, which must be {names}", path.display())
+    }
+}
+
+/// Encodes the frame's shaded image: 8-bit sRGB PNG, or the linear colour
+/// as 32-bit float OpenEXR (channels R, G, B) with any `aovs` beside it.
+pub fn shaded_bytes(frame: &Frame, format: FileFormat, aovs: &[Aov]) -> Result<Vec<u8>> {
+    match format {
+        FileFormat::Png => png_bytes(&frame.shaded()),
+        FileFormat::Exr => exr_layers(frame, true, aovs),
+        other => bail!("an image cannot be written as .{}", other.extension()),
+    }
+}
+
 /// Encodes an image as PNG bytes.
 pub fn png_bytes(img: &image::RgbImage) -> Result<Vec<u8>> {
     let mut out = Cursor::new(Vec::new());
@@ -93,14 +147,25 @@ pub enum Aov {
 
 /// A 32-bit float OpenEXR file with the chosen AOVs.
 pub fn exr_bytes(frame: &Frame, aovs: &[Aov]) -> Result<Vec<u8>> {
-    use exr::prelude::*;
     if aovs.is_empty() {
         bail!("no AOV chosen");
     }
+    exr_layers(frame, false, aovs)
+}
+
+/// A 32-bit float OpenEXR file: the linear shaded colour (R, G, B) if
+/// `rgb`, then the AOVs.
+fn exr_layers(frame: &Frame, rgb: bool, aovs: &[Aov]) -> Result<Vec<u8>> {
+    use exr::prelude::*;
     let channel = |name: &str, f: &dyn Fn(&GpuResult) -> f32| {
         AnyChannel::new(name, FlatSamples::F32(frame.pixels.iter().map(f).collect()))
     };
     let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+    if rgb {
+        for (i, name) in ["R", "G", "B"].iter().enumerate() {
+            channels.push(channel(name, &|p| p.color[i]));
+        }
+    }
     for aov in aovs {
         match aov {
             Aov::Depth => channels.push(channel("Z", &|p| if p.counts[3] & FLAG_HIT != 0 { p.hit[3] } else { f32::INFINITY })),

@@ -58,3 +58,70 @@ pub fn write_png_svg(
 pub fn plot_err<E: std::fmt::Display>(e: E) -> anyhow::Error {
     anyhow!("plotting: {e}")
 }
+
+/// A log axis over whole decades: from the decade at or below `min` to the
+/// one at or above `max` (each widened by `pad` first, so that no point
+/// sits on the frame), and every decade in it, for key points that are
+/// each labelled.
+pub fn decade_axis(min: f64, max: f64, pad: f64) -> (std::ops::Range<f64>, Vec<f64>) {
+    // The ends are decades themselves, computed alike, so both are key points.
+    let (k0, k1) = ((min / pad).log10().floor() as i32, (max * pad).log10().ceil() as i32);
+    let decades: Vec<f64> = (k0..=k1.max(k0 + 1)).map(|k| 10f64.powi(k)).collect();
+    (decades[0]..decades[decades.len() - 1], decades)
+}
+
+/// The 2 to 9 multiples of each decade of `decades` inside `range`: light
+/// grid lines, unlabelled.
+pub fn decade_minors(range: &std::ops::Range<f64>, decades: &[f64]) -> Vec<f64> {
+    decades.iter().flat_map(|&d| (2..10).map(move |m| d * f64::from(m))).filter(|v| range.contains(v)).collect()
+}
+
+/// How a legend entry is drawn.
+#[derive(Clone, Copy, Debug)]
+pub enum LegendMark {
+    /// A filled dot.
+    Dot(plotters::style::RGBAColor),
+    /// A line with a ringed dot.
+    RingedLine(plotters::style::RGBAColor),
+}
+
+/// Draws a legend in its own `area` (beside the chart, so that it covers
+/// no data): one row per entry, from the top.
+pub fn draw_legend<DB: plotters::prelude::DrawingBackend>(
+    area: &plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
+    entries: &[(String, LegendMark)],
+) -> Result<()> {
+    use plotters::prelude::*;
+    let top = 60;
+    for (i, (label, mark)) in entries.iter().enumerate() {
+        let y = top + 24 * i as i32;
+        match *mark {
+            LegendMark::Dot(c) => area.draw(&Circle::new((22, y), 5, c.filled())).map_err(plot_err)?,
+            LegendMark::RingedLine(c) => {
+                area.draw(&PathElement::new(vec![(10, y), (34, y)], c.stroke_width(2))).map_err(plot_err)?;
+                area.draw(&Circle::new((22, y), 7, c.stroke_width(1))).map_err(plot_err)?;
+            }
+        }
+        area.draw(&Text::new(label.clone(), (44, y - 8), ("sans-serif", 15).into_font())).map_err(plot_err)?;
+    }
+    Ok(())
+}
+
+/// A whole number with thousands separators: 100000 -> "100,000".
+pub fn thousands(n: usize) -> String {
+    let s = n.to_string();
+    let mut out = String::new();
+    for (i, ch) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(ch);
+    }
+    out
+}
+
+/// A decade's label: 1e-3 ... 1e-1 below 1, then 1, 10, 100, 1,000 ...
+pub fn decade_label(v: f64) -> String {
+    let k = v.log10().round() as i32;
+    if k < 0 { format!("1e{k}") } else { thousands(10usize.pow(k as u32)) }
+}

@@ -12,7 +12,7 @@ use super::{MarchOptions, Renderer};
 use super::rays::camera_rays;
 use crate::gpu::Context;
 use crate::method::Method;
-use crate::output::{self, Aov, Frame, MarchStats};
+use crate::output::{self, Aov, FileFormat, Frame, MarchStats};
 use crate::scene::Scene;
 
 /// What to render and where to put it.
@@ -22,7 +22,7 @@ pub struct RenderJob {
     pub method: Method,
     pub width: u32,
     pub height: u32,
-    /// The shaded PNG.
+    /// The shaded image: PNG, or the linear image as OpenEXR (`.exr`).
     pub output: PathBuf,
     pub heatmap: Option<PathBuf>,
     pub steps_max: Option<u32>,
@@ -49,6 +49,41 @@ impl RenderJob {
             stats: None,
             timeout,
         }
+    }
+}
+
+/// The formats and paths a [`RenderJob`] writes, checked from the
+/// extensions before any work.
+#[derive(Clone, Debug)]
+pub struct JobOutputs {
+    /// The shaded image's format (`-o`): PNG, or EXR for the linear image.
+    pub image: FileFormat,
+    /// Where the AOVs go, if any are asked for.
+    pub aovs: Option<PathBuf>,
+}
+
+impl RenderJob {
+    /// Checks every output path's extension (one-line errors naming the
+    /// flag) and says what will be written where: `-o` PNG or EXR,
+    /// `--heatmap` PNG, `--aov-output` EXR (default: `-o` with `.exr`, the
+    /// same file when `-o` is EXR), `--stats` JSON.
+    pub fn outputs(&self) -> Result<JobOutputs> {
+        let image = FileFormat::of("-o", &self.output, FileFormat::IMAGE)?;
+        if let Some(path) = &self.heatmap {
+            FileFormat::of("--heatmap", path, &[FileFormat::Png])?;
+        }
+        if let Some(path) = &self.aov_output {
+            FileFormat::of("--aov-output", path, &[FileFormat::Exr])?;
+        }
+        if let Some(path) = &self.stats {
+            FileFormat::of("--stats", path, &[FileFormat::Json])?;
+        }
+        let aovs = (!self.aovs.is_empty()).then(|| match &self.aov_output {
+            Some(path) => path.clone(),
+            None if image == FileFormat::Exr => self.output.clone(),
+            None => self.output.with_extension("exr"),
+        });
+        Ok(JobOutputs { image, aovs })
     }
 }
 
@@ -132,14 +167,19 @@ pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStat
         march,
         index,
     };
-    let mut files = vec![(job.output.clone(), output::png_bytes(&frame.shaded())?)];
+    let outputs = job.outputs()?;
+    // An EXR image with AOVs that go to the same file holds both.
+    let (aovs_inside, aovs_apart) = match &outputs.aovs {
+        Some(path) if *path == job.output => (&job.aovs[..], None),
+        other => (&[][..], other.as_ref()),
+    };
+    let mut files = vec![(job.output.clone(), output::shaded_bytes(&frame, outputs.image, aovs_inside)?)];
     if let Some(path) = &job.heatmap {
         let img = output::heatmap_image(frame.width, frame.height, &frame.steps(), job.steps_max);
         files.push((path.clone(), output::png_bytes(&img)?));
     }
-    if !job.aovs.is_empty() {
-        let path = job.aov_output.clone().unwrap_or_else(|| job.output.with_extension("exr"));
-        files.push((path, output::exr_bytes(&frame, &job.aovs)?));
+    if let Some(path) = aovs_apart {
+        files.push((path.clone(), output::exr_bytes(&frame, &job.aovs)?));
     }
     if let Some(path) = &job.stats {
         files.push((path.clone(), serde_json::to_vec_pretty(&stats)?));

@@ -3,6 +3,57 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::SceneError;
+
+/// The RON options of every scene file: an optional field takes its value
+/// plain (`weight: 2.0`, as docs/scene-format.md writes it) or as
+/// `Some(2.0)` (RON's `implicit_some`).
+pub fn ron_options() -> ron::Options {
+    ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+}
+
+/// Parses scene text (not yet validated). A syntax or type error names its
+/// line and column and, where it happens inside a field, that field's path
+/// (`groups[0].primitives[3].kernel.weight`), as validation errors do.
+pub fn parse(text: &str, name: &str) -> Result<SceneFile, SceneError> {
+    let error = |e: ron::error::SpannedError, path: &str| {
+        let at = format!("line {}, column {}", e.span.start.line, e.span.start.col);
+        SceneError {
+            file: name.to_string(),
+            field: if path.is_empty() { at } else { format!("{at}: {path}") },
+            message: e.code.to_string(),
+        }
+    };
+    let options = ron_options();
+    let mut de = ron::Deserializer::from_str_with_options(text, &options).map_err(|e| error(e, ""))?;
+    let file = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = field_path(e.path());
+        error(de.span_error(e.into_inner()), &path)
+    })?;
+    de.end().map_err(|e| error(de.span_error(e), ""))?;
+    Ok(file)
+}
+
+/// A path in the style of validation errors: `groups[0].primitives[3]`
+/// with enum variants (`Point`, `Compact`) left out, empty at the root.
+fn field_path(path: &serde_path_to_error::Path) -> String {
+    use serde_path_to_error::Segment;
+    let mut out = String::new();
+    for segment in path.iter() {
+        match segment {
+            Segment::Seq { index } => out.push_str(&format!("[{index}]")),
+            Segment::Map { key } => {
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push_str(key);
+            }
+            Segment::Enum { .. } | Segment::Unknown => {}
+        }
+    }
+    out
+}
+
 /// A whole scene file. See `docs/scene-format.md`.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, rename = "Scene")]

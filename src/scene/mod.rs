@@ -177,12 +177,7 @@ impl Scene {
 
     /// Parses and validates scene text; `name` labels errors.
     pub fn parse(text: &str, name: &str) -> Result<Scene, SceneError> {
-        let file: SceneFile = ron::Options::default().from_str(text).map_err(|e| SceneError {
-            file: name.to_string(),
-            field: format!("line {}, column {}", e.span.start.line, e.span.start.col),
-            message: e.code.to_string(),
-        })?;
-        validate(&file, name)
+        validate(&file::parse(text, name)?, name)
     }
 
     /// Whether any primitive has a Gaussian kernel (the rest are compact).
