@@ -1,0 +1,81 @@
+//! Refinement of crossings: secant refinement against bisection through
+//! `bench`, which also checks `--repeat`'s statistics.
+
+mod common;
+
+use common::{bin, repo_root, scratch};
+use serde_json::Value;
+
+/// `isomarch bench SCENE --json` with `args`; the report.
+fn bench(scene: &str, args: &[&str], name: &str) -> Value {
+    let json = scratch(name).join("bench.json");
+    let run = std::process::Command::new(bin())
+        .args(["bench", scene, "--rays", "8192", "--json"])
+        .arg(&json)
+        .args(args)
+        .current_dir(repo_root())
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "bench {scene} {args:?}: {}", String::from_utf8_lossy(&run.stderr));
+    serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap()
+}
+
+fn num(v: &Value, field: &str) -> f64 {
+    v[field].as_f64().unwrap_or_else(|| panic!("no number {field} in {v}"))
+}
+
+/// Secant and bisection refinement give the same steps, hits, misses and
+/// false hits on an opaque and a transparent protocol scene; secant takes
+/// at most 10 kernel evaluations per hit on fig10 (bisection about 22) and
+/// fewer than half bisection's evaluations on every row.
+#[test]
+fn secant_refinement_matches_bisection_with_fewer_evaluations() {
+    let methods = "segment,quadratic-taylor,quadratic";
+    for scene in ["scenes/fig10.ron", "scenes/fig1.ron"] {
+        let secant = bench(scene, &["--methods", methods, "--refine", "secant"], "refine-secant");
+        let bisection = bench(scene, &["--methods", methods, "--refine", "bisection"], "refine-bisection");
+        for (s, b) in secant["methods"].as_array().unwrap().iter().zip(bisection["methods"].as_array().unwrap()) {
+            let row = format!("{scene} {}", s["method"]);
+            for field in ["steps_per_ray", "hit_rate", "miss_rate", "false_hit_rate", "out_of_steps_rate"] {
+                assert_eq!(num(s, field), num(b, field), "{row}: {field} differs between secant and bisection");
+            }
+            let (rs, rb) = (num(s, "refine_per_ray"), num(b, "refine_per_ray"));
+            assert!(rb > 0.0 && rs < 0.5 * rb, "{row}: refinement evaluations per ray {rs} (secant) against {rb} (bisection)");
+            assert!(num(s, "max_abs_error") <= num(b, "max_abs_error") + 1e-3, "{row}: secant less accurate than bisection");
+            if scene.ends_with("fig10.ron") {
+                let per_hit = rs / num(s, "hit_rate");
+                assert!(per_hit <= 10.0, "{row}: {per_hit} kernel evaluations per hit");
+            }
+        }
+    }
+}
+
+/// `--repeat N` runs every method N times: each row has N times, its
+/// median between the fastest and the slowest, and the time ratio of the
+/// first row is 1 in every repeat.
+#[test]
+fn bench_repeat_reports_medians_and_ranges() {
+    let report = bench("scenes/fig10.ron", &["--methods", "segment,quadratic-taylor", "--repeat", "3"], "bench-repeat");
+    assert_eq!(report["repeats"].as_u64(), Some(3));
+    for (i, row) in report["methods"].as_array().unwrap().iter().enumerate() {
+        let runs: Vec<f64> = row["ns_per_ray_runs"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        assert_eq!(runs.len(), 3, "{row}");
+        let (lo, med, hi) = (num(row, "ns_per_ray_min"), num(row, "ns_per_ray"), num(row, "ns_per_ray_max"));
+        assert!(runs.iter().all(|&t| t > 0.0 && lo <= t && t <= hi), "{row}");
+        assert!(runs.contains(&med), "{row}: the median of three is one of them");
+        let (rlo, r, rhi) = (num(row, "time_ratio_min"), num(row, "time_ratio"), num(row, "time_ratio_max"));
+        assert!(rlo <= r && r <= rhi, "{row}");
+        if i == 0 {
+            assert_eq!((rlo, r, rhi), (1.0, 1.0, 1.0), "{row}");
+        }
+    }
+    // A repeat count of 0 is refused in one line.
+    let run = std::process::Command::new(bin())
+        .args(["bench", "scenes/fig10.ron", "--repeat", "0"])
+        .current_dir(repo_root())
+        .output()
+        .unwrap();
+    assert!(!run.status.success());
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("--repeat must be at least 1") && err.trim().lines().count() == 1, "{err}");
+}
