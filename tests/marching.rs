@@ -31,7 +31,7 @@ fn march_camera(ctx: &std::sync::Arc<isomarch::gpu::Context>, scene: &Scene, met
 /// clear of it. Rays within 1e-3 of tangency may go either way.
 fn assert_sphere(scene: &Scene, radius: f64, tol: f64) {
     let ctx = gpu();
-    for &method in Method::ALL {
+    for &method in Method::CONSERVATIVE {
         let (rays, results) = march_camera(&ctx, scene, method);
         let mut hits = 0;
         for (ray, res) in rays.iter().zip(&results) {

@@ -14,6 +14,7 @@
 
 #include "traverse.glsl"
 #include "shade.glsl"
+#include "inversion.glsl"
 
 struct March {
     float t;            // current point; the hit distance once FLAG_HIT (opaque)
@@ -105,6 +106,8 @@ void march_step(vec3 o, vec3 u, float tmax, inout March m) {
     if (SC_METHOD == METHOD_SPHERE) {
         f = field(o + m.t * u);
         step = abs(f) / globals.march.w;                      // Eq. 10
+    } else if (SC_METHOD == METHOD_FIELD_INVERSION) {
+        step = inversion_step(o, u, m.t, f);                  // not conservative (inversion.glsl)
     } else if (SC_METHOD == METHOD_SEGMENT) {
         float lambda;
         f = field_and_lipschitz(o, u, m.t, t_end, lambda);   // Eq. 11, docs/benchmark-protocol.md
