@@ -204,3 +204,17 @@ fn every_method_renders_a_molecule_and_field_inversion_reports_its_miss_rate() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && stderr.lines().count() == 1 && stderr.contains("field-inversion"), "{stderr}");
 }
+
+#[test]
+fn batch_frames_turn_the_camera_around_the_molecule() {
+    let dir = scratch("mol-turntable");
+    let pattern = dir.join("f_#.png");
+    let out = run(&[
+        "render", pdb_1a8o().to_str().unwrap(), "--turntable", "4", "--frames", "0..2", "--fps", "1", "--size", "40x40",
+        "-o", pattern.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let a = image::open(dir.join("f_0.png")).unwrap().to_rgb8();
+    let b = image::open(dir.join("f_1.png")).unwrap().to_rgb8();
+    assert_ne!(a, b, "a quarter turn later the frame is the same");
+}
