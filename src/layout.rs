@@ -53,7 +53,9 @@ gpu_structs! {
     /// `b`: x support radius R (compact) or scale r (Gaussian), y 1/R² or
     /// s/r², z weight, w the distance where |dk/dd| peaks (R/√5 or r/√(2s)).
     /// `c`: x the peak of |dk/dd| (the kernel's Lipschitz constant), yzw reserved.
-    /// `ids`: x kind (`PRIM_*`), y group index (primitives are sorted by group).
+    /// `ids`: x kind (`PRIM_*`), y group index (primitives are sorted by group),
+    /// z the primitive's own colour (linear RGB, 8 bits a channel, red lowest)
+    /// when `GpuGlobals::surface.w` is 1.
     struct GpuPrimitive { a: Vec4, b: Vec4, c: Vec4, ids: UVec4 }
 
     /// One ray: origin and `tmin` in `o`, unit direction and `tmax` in `d`.
@@ -99,14 +101,18 @@ gpu_structs! {
     /// which a Gaussian imposes no validity interval (`quadratic`), z the
     /// longest candidate interval of a step with the spatial index (0: no
     /// limit), w reserved.
+    /// `surface`: rgb the surface colour, w 1 when every primitive carries
+    /// its own colour instead (`GpuPrimitive::ids.z`).
     /// `material`: transparent rendering's absorption per unit length (rgb)
     /// and opacity of a surface crossing (w).
     /// `grid`: the spatial index's box, xyz its minimum corner, w the cell
     /// size; `grid_dims`: xyz cells per axis, w lists per group (the cells
     /// and one everywhere list; see shaders/include/grid.glsl).
+    /// `inversion`: field inversion's reference radius, sharpness s, ln of
+    /// the blobs' weight and ln of the density floor (src/field/inversion.rs).
     struct GpuGlobals {
         march: Vec4, sizes: UVec4, tuning: Vec4, background: Vec4, surface: Vec4, ambient: Vec4, material: Vec4,
-        grid: Vec4, grid_dims: UVec4,
+        grid: Vec4, grid_dims: UVec4, inversion: Vec4,
     }
 
     /// A directional light: `dir.xyz` towards the light (unit), `color.rgb`
@@ -164,6 +170,7 @@ pub const METHOD_RAA: u32 = 6;
 pub const METHOD_QUADRATIC: u32 = 7;
 pub const METHOD_QUADRATIC_RELAXED_T0: u32 = 8;
 pub const METHOD_QUADRATIC_RELAXED_MAX: u32 = 9;
+pub const METHOD_FIELD_INVERSION: u32 = 10;
 
 /// Specialization constants as `(constant_id, name)`; all are `uint`.
 /// `SC_HAS_*` are 0 or 1: a pipeline keeps only the code paths its scene uses.
@@ -193,7 +200,11 @@ pub const SCAN_BLOCK: u32 = 256;
 pub const CELL_PAD: f32 = 1e-3;
 
 /// Float constants shared with GLSL, as `(name, value)`.
-pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] = &[("CELL_PAD", CELL_PAD), ("SECANT_STRADDLE", SECANT_STRADDLE)];
+pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] =
+    &[("CELL_PAD", CELL_PAD), ("SECANT_STRADDLE", SECANT_STRADDLE), ("INVERSION_OVER_RELAXATION", INVERSION_OVER_RELAXATION)];
+
+/// Field inversion's over-relaxation ω (src/field/inversion.rs).
+pub const INVERSION_OVER_RELAXATION: f32 = 1.2;
 
 /// Integer constants shared with GLSL, as `(name, value)`.
 pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
@@ -207,6 +218,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("METHOD_QUADRATIC", METHOD_QUADRATIC),
     ("METHOD_QUADRATIC_RELAXED_T0", METHOD_QUADRATIC_RELAXED_T0),
     ("METHOD_QUADRATIC_RELAXED_MAX", METHOD_QUADRATIC_RELAXED_MAX),
+    ("METHOD_FIELD_INVERSION", METHOD_FIELD_INVERSION),
     ("PRIM_COMPACT_POINT", PRIM_COMPACT_POINT),
     ("PRIM_GAUSSIAN_POINT", PRIM_GAUSSIAN_POINT),
     ("PRIM_COMPACT_PLANE", PRIM_COMPACT_PLANE),

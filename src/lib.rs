@@ -15,6 +15,7 @@ pub mod generate;
 pub mod gpu;
 pub mod layout;
 pub mod method;
+pub mod molecule;
 pub mod output;
 pub mod render;
 pub mod scaling;

@@ -58,6 +58,10 @@ enum Command {
     /// Write a benchmark scene, e.g. `generate particles --count 1000 --seed 1 -o p.ron`.
     #[command(subcommand)]
     Generate(GenerateCommand),
+    /// Write the scene file of a molecule (.pdb, .cif, .gro, gzipped or
+    /// not): one Gaussian blob per atom, editable, and rendered exactly as
+    /// `render` renders the molecule file itself (docs/molecules.md).
+    Scene(SceneArgs),
     /// Measure how time per ray grows with the scene: `generate particles`
     /// scenes of each --counts at a fixed density, every method on the
     /// protocol rays, repeats interleaved. Writes DIR/scaling.md (also
@@ -96,6 +100,96 @@ struct ParticlesArgs {
     /// The scene file to write (.ron), atomically.
     #[arg(short, long)]
     output: PathBuf,
+}
+
+/// How a molecule file becomes a scene (docs/molecules.md). These apply
+/// to molecule files only (.pdb, .ent, .cif, .mmcif, .gro, each optionally
+/// .gz); a scene file given with one is refused.
+#[derive(Args)]
+struct MoleculeArgs {
+    /// Keep hydrogen atoms (left out by default).
+    #[arg(long)]
+    hydrogens: bool,
+    /// Sharpness s of each atom's Gaussian e^(-s d^2/r^2) [default: 2].
+    #[arg(long, value_name = "S")]
+    sharpness: Option<f64>,
+    /// Factor on the van der Waals radii (Bondi 1964) [default: 1].
+    #[arg(long, value_name = "K")]
+    radius_scale: Option<f64>,
+    /// Iso value; with each atom's weight e^s, 1 puts a lone atom's
+    /// surface at its radius, more shrinks the surface [default: 1].
+    #[arg(long)]
+    iso: Option<f64>,
+    /// Colour atoms by element (Jmol CPK colours), by chain, or not at all [default: element].
+    #[arg(long, value_enum)]
+    color: Option<isomarch::molecule::Coloring>,
+    /// Turntable: the camera circles the molecule once per SECONDS of
+    /// scene time (the viewer plays it; `render --frames` renders it).
+    #[arg(long, value_name = "SECONDS")]
+    turntable: Option<f64>,
+}
+
+impl MoleculeArgs {
+    fn options(&self) -> isomarch::molecule::MoleculeOptions {
+        let d = isomarch::molecule::MoleculeOptions::default();
+        isomarch::molecule::MoleculeOptions {
+            hydrogens: self.hydrogens,
+            sharpness: self.sharpness.unwrap_or(d.sharpness),
+            radius_scale: self.radius_scale.unwrap_or(d.radius_scale),
+            iso: self.iso.unwrap_or(d.iso),
+            coloring: self.color.unwrap_or(d.coloring),
+            turntable: self.turntable,
+        }
+    }
+
+    /// The flags given, for the refusal of a scene file.
+    fn given(&self) -> Vec<&'static str> {
+        let mut v = Vec::new();
+        let flags = [
+            (self.hydrogens, "--hydrogens"),
+            (self.sharpness.is_some(), "--sharpness"),
+            (self.radius_scale.is_some(), "--radius-scale"),
+            (self.iso.is_some(), "--iso"),
+            (self.color.is_some(), "--color"),
+            (self.turntable.is_some(), "--turntable"),
+        ];
+        for (on, name) in flags {
+            if on {
+                v.push(name);
+            }
+        }
+        v
+    }
+
+    /// The scene of `path`: a molecule file built with these options (its
+    /// notes and warnings printed to stderr), else a scene file.
+    fn load(&self, path: &Path) -> Result<Scene> {
+        if !isomarch::molecule::is_molecule(path) {
+            let given = self.given();
+            if !given.is_empty() {
+                bail!("{} applies to molecule files (.pdb, .cif, .gro, optionally .gz); {} is a scene file", given.join(", "), path.display());
+            }
+            return Ok(Scene::load(path)?);
+        }
+        let (scene, notes) = isomarch::molecule::build::load_scene(path, &self.options())?;
+        for w in &notes.warnings {
+            eprintln!("warning: {w}");
+        }
+        eprintln!("{}", notes.summary);
+        Ok(scene)
+    }
+}
+
+/// `isomarch scene`.
+#[derive(Args)]
+struct SceneArgs {
+    /// Molecule file (.pdb, .ent, .cif, .mmcif, .gro; optionally .gz).
+    molecule: PathBuf,
+    /// The scene file to write (.ron), atomically.
+    #[arg(short, long)]
+    output: PathBuf,
+    #[command(flatten)]
+    molecule_args: MoleculeArgs,
 }
 
 /// The device flags of every command that uses the GPU.
@@ -162,9 +256,9 @@ struct MarchArgs {
 }
 
 impl MarchArgs {
-    /// Loads the scene at `path` with these overrides.
-    fn load(&self, path: &Path) -> Result<Scene> {
-        let mut scene = Scene::load(path)?;
+    /// Loads the scene or molecule file at `path` with these overrides.
+    fn load(&self, path: &Path, molecule: &MoleculeArgs) -> Result<Scene> {
+        let mut scene = molecule.load(path)?;
         self.apply(&mut scene)?;
         Ok(scene)
     }
@@ -234,7 +328,7 @@ struct BatchArgs {
 /// `isomarch render`.
 #[derive(Args)]
 struct RenderArgs {
-    /// Scene file (RON).
+    /// Scene file (RON) or molecule file (.pdb, .cif, .gro, optionally .gz).
     scene: PathBuf,
     /// Shaded image: PNG, or the linear image as 32-bit float OpenEXR
     /// (.exr; with --aov and no --aov-output, the AOVs go in the same file).
@@ -262,6 +356,8 @@ struct RenderArgs {
     #[command(flatten)]
     batch: BatchArgs,
     #[command(flatten)]
+    molecule: MoleculeArgs,
+    #[command(flatten)]
     march: MarchArgs,
     #[command(flatten)]
     gpu: GpuArgs,
@@ -270,7 +366,7 @@ struct RenderArgs {
 /// `isomarch view`.
 #[derive(Args)]
 struct ViewArgs {
-    /// Scene file (RON).
+    /// Scene file (RON) or molecule file (.pdb, .cif, .gro, optionally .gz).
     scene: PathBuf,
     /// Window size as WxH (default: the scene's camera.resolution).
     #[arg(long, value_parser = parse_size)]
@@ -297,6 +393,8 @@ struct ViewArgs {
     /// Folder where S saves screenshots.
     #[arg(long, default_value = ".", value_name = "DIR")]
     screenshot_dir: PathBuf,
+    #[command(flatten)]
+    molecule: MoleculeArgs,
     #[command(flatten)]
     march: MarchArgs,
     #[command(flatten)]
@@ -375,7 +473,7 @@ struct ScalingArgs {
 /// `isomarch bench`.
 #[derive(Args)]
 struct BenchArgs {
-    /// Scene file (RON).
+    /// Scene file (RON) or molecule file (.pdb, .cif, .gro, optionally .gz).
     scene: PathBuf,
     /// Comma-separated marchers; ratios are to the first.
     #[arg(long, default_value = "segment,sphere")]
@@ -407,6 +505,8 @@ struct BenchArgs {
     /// Top of the shared heatmap scale (default 75, as in the paper).
     #[arg(long, default_value_t = 75)]
     steps_max: u32,
+    #[command(flatten)]
+    molecule: MoleculeArgs,
     #[command(flatten)]
     march: MarchArgs,
     #[command(flatten)]
@@ -563,7 +663,7 @@ fn info() -> Result<()> {
 }
 
 fn render(args: RenderArgs) -> Result<()> {
-    let scene = args.march.load(&args.scene)?;
+    let scene = args.march.load(&args.scene, &args.molecule)?;
     let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
     if let Some(range) = args.batch.frames {
         return render_frames(args, range, scene, size);
@@ -644,7 +744,7 @@ fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Sc
 }
 
 fn view(args: ViewArgs) -> Result<()> {
-    let scene = args.march.load(&args.scene)?;
+    let scene = args.march.load(&args.scene, &args.molecule)?;
     let fps = check_fps(args.fps)?;
     if !(args.preview_ms.is_finite() && args.preview_ms > 0.0) {
         bail!("--preview-ms must be positive, got {}", args.preview_ms);
@@ -752,6 +852,24 @@ fn generate(command: GenerateCommand) -> Result<()> {
     }
 }
 
+/// `isomarch scene`: a molecule's scene file.
+fn scene(args: SceneArgs) -> Result<()> {
+    if !args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron")) {
+        bail!("-o {}: a scene file must end in .ron", args.output.display());
+    }
+    let m = isomarch::molecule::read(&args.molecule)?;
+    let (text, notes) = isomarch::molecule::build::scene_text(&m, &args.molecule_args.options())?;
+    for w in &notes.warnings {
+        eprintln!("warning: {w}");
+    }
+    // The text must load as the molecule renders: check before writing.
+    Scene::parse(&text, &m.source)?;
+    write_atomic(&args.output, text.as_bytes())?;
+    eprintln!("{}", notes.summary);
+    println!("wrote {}", args.output.display());
+    Ok(())
+}
+
 fn scaling(args: ScalingArgs) -> Result<()> {
     let ScalingArgs { counts, methods, rays, repeat, seed, ray_seed, gaussian, output, gpu } = args;
     let sweep = isomarch::scaling::Sweep {
@@ -795,7 +913,7 @@ fn bench(args: BenchArgs) -> Result<()> {
         FileFormat::of("--heatmap-grid", path, &[FileFormat::Png])?;
     }
     // An animated scene is measured as posed at time 0.
-    let scene = args.march.load(&args.scene)?.at_time(0.0);
+    let scene = args.march.load(&args.scene, &args.molecule)?.at_time(0.0);
     let gpu = args.gpu.open()?;
     let variants = args.variants.variants(&scene);
     if args.repeat == 0 {
@@ -853,6 +971,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Tradeoff(args) => tradeoff(args),
         Command::Bench(args) => bench(args),
         Command::Generate(command) => generate(command),
+        Command::Scene(args) => scene(args),
         Command::Scaling(args) => scaling(args),
     }
 }

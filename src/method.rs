@@ -35,10 +35,33 @@ pub enum Method {
     /// Bottom-up quadratic, exp bounded on the whole interval by relaxing
     /// the bound at the kernel's maximum (Figure 21 c).
     QuadraticRelaxedMax,
+    /// Field inversion (Bruckner 2019, the paper's molecule baseline):
+    /// sphere tracing of the Gaussian density inverted into an approximate
+    /// distance (src/field/inversion.rs). Not conservative: measured by its
+    /// miss rate, not held to the no-missed-crossing tests.
+    FieldInversion,
 }
 
 impl Method {
+    /// Every method, the baselines that may miss a crossing included.
     pub const ALL: &'static [Method] = &[
+        Method::Sphere,
+        Method::Segment,
+        Method::LinearTaylor,
+        Method::QuadraticTaylor,
+        Method::Linear,
+        Method::LinearBisection,
+        Method::Raa,
+        Method::Quadratic,
+        Method::QuadraticRelaxedT0,
+        Method::QuadraticRelaxedMax,
+        Method::FieldInversion,
+    ];
+
+    /// The methods that never step over a crossing (up to the minimum step
+    /// and f32): those the no-missed-crossing tests hold to it. Field
+    /// inversion is not among them.
+    pub const CONSERVATIVE: &'static [Method] = &[
         Method::Sphere,
         Method::Segment,
         Method::LinearTaylor,
@@ -63,6 +86,7 @@ impl Method {
             Method::Quadratic => "quadratic",
             Method::QuadraticRelaxedT0 => "quadratic-relaxed-t0",
             Method::QuadraticRelaxedMax => "quadratic-relaxed-max",
+            Method::FieldInversion => "field-inversion",
         }
     }
 
@@ -91,7 +115,13 @@ impl Method {
             Method::Quadratic => layout::METHOD_QUADRATIC,
             Method::QuadraticRelaxedT0 => layout::METHOD_QUADRATIC_RELAXED_T0,
             Method::QuadraticRelaxedMax => layout::METHOD_QUADRATIC_RELAXED_MAX,
+            Method::FieldInversion => layout::METHOD_FIELD_INVERSION,
         }
+    }
+
+    /// Whether the method never steps over a crossing (see `CONSERVATIVE`).
+    pub fn conservative(self) -> bool {
+        Method::CONSERVATIVE.contains(&self)
     }
 
     /// The Gaussian's exp rule of a bottom-up quadratic method.
@@ -154,5 +184,12 @@ mod tests {
         }
         assert_eq!(super::parse_list(" sphere,,segment "), Ok(vec![Method::Sphere, Method::Segment]));
         assert_eq!(super::parse_list(", ,"), Err("no method given".to_string()));
+    }
+
+    #[test]
+    fn every_method_but_field_inversion_is_conservative() {
+        let others: Vec<Method> = Method::ALL.iter().copied().filter(|&m| m != Method::FieldInversion).collect();
+        assert_eq!(others, Method::CONSERVATIVE);
+        assert!(!Method::FieldInversion.conservative());
     }
 }

@@ -146,6 +146,8 @@ struct Input {
     method: Method,
     /// The scene's transparency shown (T toggles it off and on).
     transparency: bool,
+    /// Field inversion can march the scene (one sum of like Gaussians).
+    invertible: bool,
     /// The steps heatmap shown instead of the shaded frame (H).
     heatmap: bool,
     /// Where the left button drags from; `None` while it is up.
@@ -162,6 +164,7 @@ impl Input {
         Input {
             method: options.method,
             transparency: options.scene.transparency.is_some(),
+            invertible: crate::field::inversion::Inversion::of_field(&crate::field::Field::new(&options.scene)).is_ok(),
             heatmap: false,
             drag: None,
             cursor: (0.0, 0.0),
@@ -171,9 +174,10 @@ impl Input {
     }
 
     /// Methods the scene can be marched with as shown (the bisection
-    /// baselines find only a first entering crossing: opaque only).
+    /// baselines find only a first entering crossing: opaque only; field
+    /// inversion needs a molecule-like scene).
     fn usable(&self, m: Method) -> bool {
-        !(self.transparency && matches!(m, Method::LinearBisection | Method::Raa))
+        !(self.transparency && matches!(m, Method::LinearBisection | Method::Raa)) && (m != Method::FieldInversion || self.invertible)
     }
 
     /// The next usable method after the current one, in `Method::ALL` order.

@@ -316,7 +316,7 @@ fn degenerate_queries_give_finite_bounds_and_marches_end() {
             }
         }
     }
-    for &method in Method::ALL {
+    for &method in Method::CONSERVATIVE {
         let out = renderer.march(method, MarchOptions { quad: DEFAULT, ..MarchOptions::for_scene(&s) }, &queries, |_| {}).unwrap();
         for (res, q) in out.results.iter().zip(&queries) {
             assert!(res.hit.iter().all(|x| x.is_finite()), "{method}: NaN result {res:?} for {q:?}");

@@ -167,6 +167,13 @@ const OPTIONAL_FIELDS: &[(&str, &str, &str, &str)] = &[
     ("transparency", "iso: 0.5,", "iso: 0.5, transparency: (opacity: 0.3),", "iso: 0.5, transparency: Some((opacity: 0.3)),"),
     ("ior", "iso: 0.5,", "iso: 0.5, transparency: (ior: 1.4),", "iso: 0.5, transparency: (ior: Some(1.4)),"),
     ("growth", "iso: 0.5,", "iso: 0.5, marching: (growth: 2.5),", "iso: 0.5, marching: (growth: Some(2.5)),"),
+    ("refine", "iso: 0.5,", "iso: 0.5, marching: (refine: \"bisection\"),", "iso: 0.5, marching: (refine: Some(\"bisection\")),"),
+    (
+        "color",
+        "kernel: Compact(radius: 2.0))",
+        "kernel: Compact(radius: 2.0), color: (0.2, 0.3, 0.9))",
+        "kernel: Compact(radius: 2.0), color: Some((0.2, 0.3, 0.9)))",
+    ),
     (
         "bounds",
         "iso: 0.5,",

@@ -210,3 +210,22 @@ fn the_viewer_answers_its_controls() {
     let (first, last) = (row[3], row[92]);
     assert!(first[2] > first[1] && last[0] > 150 && last[1] > 150 && last[2] < 100, "no viridis bar: {first:?} .. {last:?}");
 }
+
+#[test]
+fn the_viewer_turns_a_molecule_on_its_turntable() {
+    // Issue 14: a PDB file opened directly, the camera circling it.
+    let x = Xvfb::start();
+    let dir = scratch("viewer-molecule");
+    let mut shots = Vec::new();
+    for time in ["0", "1"] {
+        let shot = dir.join(format!("1a8o-{time}.png"));
+        let out = view(
+            &x,
+            &["tests/data/molecules/1A8O.pdb", "--turntable", "4", "--size", "64x48", "--time", time, "--paused", "--exit-after", "3", "--screenshot", shot.to_str().unwrap()],
+        );
+        assert_clean(&out, 3);
+        assert!(colours(&shot, (64, 48)) > 50, "the presented image is nearly uniform");
+        shots.push(image::open(&shot).unwrap().to_rgb8());
+    }
+    assert_ne!(shots[0], shots[1], "a quarter turn later the view is the same");
+}

@@ -15,6 +15,7 @@
 
 #include "traverse.glsl"
 #include "shade.glsl"
+#include "inversion.glsl"
 
 struct March {
     float t;            // current point; the hit distance once FLAG_HIT (opaque)
@@ -115,6 +116,10 @@ StepEval step_eval(vec3 o, vec3 u, float t0, float t1) {
     if (SC_METHOD == METHOD_SPHERE) {
         float f = field(o + t0 * u);
         return StepEval(f, abs(f) / globals.march.w);                      // Eq. 10
+    } else if (SC_METHOD == METHOD_FIELD_INVERSION) {
+        float f;
+        float step = inversion_step(o, u, t0, f);            // not conservative (inversion.glsl)
+        return StepEval(f, step);
     } else if (SC_METHOD == METHOD_SEGMENT) {
         float lambda;
         float f = field_and_lipschitz(o, u, t0, t1, lambda);   // Eq. 11, docs/benchmark-protocol.md
@@ -253,7 +258,7 @@ void algorithm1_turn(vec3 o, vec3 u, float tmax, inout March m) {
             refine_finish(o, u, m);
             return;
         }
-        t1 = SC_METHOD == METHOD_SEGMENT || SC_METHOD == METHOD_SPHERE ? t0 : t0 + globals.march.z;
+        t1 = SC_METHOD == METHOD_SEGMENT || SC_METHOD == METHOD_SPHERE || SC_METHOD == METHOD_FIELD_INVERSION ? t0 : t0 + globals.march.z;
     } else if (m.steps >= globals.sizes.w) {
         m.flags |= FLAG_DONE | FLAG_OUT_OF_STEPS;
         return;

@@ -17,7 +17,9 @@ vec3 surface_normal(vec3 p) {
 vec3 shade(vec3 n, vec3 u) {
     // Two-sided: a ray that starts inside still sees a lit surface.
     if (dot(n, u) > 0.0) n = -n;
-    vec3 base = globals.surface.rgb;
+    // The primitives' own colours where the scene gives them, blended as
+    // at the point of the last surface_normal.
+    vec3 base = globals.surface.w != 0.0 ? g_color : globals.surface.rgb;
     vec3 color = base * globals.ambient.rgb;
     vec3 view = -u;
     for (uint i = 0u; i < globals.sizes.z; ++i) {

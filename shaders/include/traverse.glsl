@@ -261,11 +261,12 @@ struct Terms {
     float lo, hi;   // EVAL_TAYLOR: range of f' or f''; EVAL_LINEAR: slopes
     Bound quad;     // EVAL_QUAD
     vec3 raa;       // EVAL_RAA: x0 + x1 ε ± e
+    vec3 color;     // EVAL_GRADIENT with per-primitive colours: colour x value
     bool unknown;   // a primitive of a kind the shader does not know
 };
 
 Terms no_terms() {
-    return Terms(0.0, vec3(0.0), 0.0, 0.0, 0.0, Bound(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), vec3(0.0), false);
+    return Terms(0.0, vec3(0.0), 0.0, 0.0, 0.0, Bound(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), vec3(0.0), vec3(0.0), false);
 }
 
 // A kind the shader does not know: the fold's every result becomes NaN
@@ -282,7 +283,10 @@ Terms poison_terms() {
 // zeros is not something the compiler may drop on its own).
 Terms terms_add(uint what, Terms a, Terms b) {
     a.v += b.v;
-    if (what == EVAL_GRADIENT) a.grad += b.grad;
+    if (what == EVAL_GRADIENT) {
+        a.grad += b.grad;
+        a.color += b.color;
+    }
     if (what == EVAL_LIPSCHITZ || what == EVAL_TAYLOR) a.slope += b.slope;
     if (what == EVAL_TAYLOR || what == EVAL_LINEAR) {
         a.lo += b.lo;
@@ -316,6 +320,12 @@ bool quadratic_taylor() {
     return SC_METHOD == METHOD_QUADRATIC_TAYLOR;
 }
 
+// A primitive's own colour, weighted by its share of the field where
+// blobs blend (scenes that give colours: globals.surface.w), else none.
+vec3 prim_color(GpuPrimitive pr) {
+    return globals.surface.w != 0.0 ? unpackUnorm4x8(pr.ids.z).rgb : vec3(0.0);
+}
+
 // --- The interface of a kind: six functions named KIND_value,
 // KIND_lipschitz, KIND_taylor, KIND_linear, KIND_quad and KIND_raa (in
 // field.glsl and inclusion.glsl), from which KIND_TERMS makes its terms
@@ -325,7 +335,10 @@ bool quadratic_taylor() {
         Terms t = no_terms();                                                                      \
         switch (what) {                                                                            \
         case EVAL_VALUE:                                                                           \
-        case EVAL_GRADIENT: t.v = KIND##_value(pr, q.o, what == EVAL_GRADIENT, t.grad); break;     \
+        case EVAL_GRADIENT:                                                                        \
+            t.v = KIND##_value(pr, q.o, what == EVAL_GRADIENT, t.grad);                            \
+            if (what == EVAL_GRADIENT) t.color = t.v * prim_color(pr);                             \
+            break;                                                                                 \
         case EVAL_LIPSCHITZ:                                                                       \
             t.v = KIND##_value(pr, q.o + q.t0 * q.u, false, t.grad);                               \
             if (q.t1 > q.t0) t.slope = KIND##_lipschitz(pr, q.o, q.u, q.t0, q.t1);                 \
@@ -359,6 +372,7 @@ Terms prim_terms(uint what, GpuPrimitive pr, Query q, inout float len) {
 struct Fold {
     float v;        // EVAL_VALUE, EVAL_GRADIENT, EVAL_LIPSCHITZ
     vec3 grad;      // EVAL_GRADIENT
+    vec3 color;     // EVAL_GRADIENT: the colours of the group attaining the max, weighted
     float slope;    // EVAL_LIPSCHITZ
     Bound bound;    // EVAL_TAYLOR, EVAL_LINEAR, EVAL_QUAD
     bool have;      //   whether `bound` holds a group yet
@@ -400,6 +414,7 @@ void fold_group(uint what, Terms s, float len, inout Fold r) {
         if (s.v > r.v) {
             r.v = s.v;
             r.grad = s.grad;
+            r.color = s.color;
         }
         break;
     case EVAL_LIPSCHITZ:
@@ -423,7 +438,7 @@ void fold_group(uint what, Terms s, float len, inout Fold r) {
 // bounded on the shorter interval, and earlier bounds stay valid on it.
 // Iso is not subtracted here.
 Fold fold_field(uint what, Query q, inout float len) {
-    Fold r = Fold(-3.0e38, vec3(0.0), 0.0, Bound(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), false, vec2(-3.0e38), false);
+    Fold r = Fold(-3.0e38, vec3(0.0), vec3(0.0), 0.0, Bound(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), false, vec2(-3.0e38), false);
     Terms sum = no_terms();
     uint group = 0u;
     for (Cursor c = cursor_begin(q); cursor_valid(c); cursor_advance(q, c)) {
@@ -449,12 +464,18 @@ Fold fold_field(uint what, Query q, inout float len) {
 
 // --- The evaluations the marchers use.
 
+// The surface colour at the point of the last field_eval with want_grad,
+// in scenes whose primitives have colours: their average weighted by each
+// one's kernel value there.
+vec3 g_color = vec3(0.0);
+
 // f(p) = max over groups of the group's sum, minus iso; with the gradient of
 // the group attaining the max when want_grad.
 float field_eval(vec3 p, bool want_grad, out vec3 grad) {
     float len = 0.0;
     Fold r = fold_field(want_grad ? EVAL_GRADIENT : EVAL_VALUE, point_query(p), len);
     grad = r.grad;
+    if (want_grad) g_color = r.v > 0.0 ? r.color / r.v : vec3(0.0);
     return r.v - globals.march.x;
 }
 

@@ -6,6 +6,7 @@ use glam::DVec3;
 
 use super::bound::next_root;
 use super::fold::{field_bound, field_linear, field_raa};
+use super::inversion::Inversion;
 use super::Field;
 use super::quad::QuadSettings;
 use crate::method::Method;
@@ -51,6 +52,16 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
     if matches!(method, Method::LinearBisection | Method::Raa) {
         return bisection(field, method, o, u, t0, t1, s);
     }
+    // A field that field inversion cannot march (not one sum of like Gaussians)
+    // takes no step; the GPU refuses it (Renderer::march).
+    let inversion = if method == Method::FieldInversion {
+        match Inversion::of_field(field) {
+            Ok(inv) => Some(inv),
+            Err(_) => return r,
+        }
+    } else {
+        None
+    };
     let (mut t, mut t_prev, mut window) = (t0, t0, t1 - t0);
     let mut f_prev = 0.0;
     let mut inside = false;
@@ -71,6 +82,10 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
                 let f = at(t);
                 let lambda = field.segment_lipschitz(o, u, t, t_end);
                 (f, if lambda > 0.0 { (f.abs() / lambda).min(len) } else { len })
+            }
+            Method::FieldInversion => {
+                let f = at(t);
+                (f, inversion.map_or(0.0, |inv| inv.step(f, field.iso)))
             }
             _ => {
                 let b = field_bound(field, method, s.quad, o, u, t, t_end).expect("an inclusion method");

@@ -5,6 +5,7 @@ pub mod bound;
 pub mod bounds;
 pub mod fold;
 pub mod grid;
+pub mod inversion;
 pub mod kinds;
 pub mod march;
 pub mod quad;

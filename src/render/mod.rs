@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, bail};
 use ash::vk;
 
+use crate::field::inversion::Inversion;
 use crate::field::{Field, PrimEval};
 use crate::settings::{QuadSettings, Refinement};
 use crate::gpu::{Buffer, ComputePipeline, Context, Submitter};
@@ -240,6 +241,7 @@ pub struct Renderer {
 /// The primitives in GPU layout, sorted by group.
 pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
     let mut radii = index::index_radii(scene).into_iter();
+    let mut colors = scene.colors.iter().flatten().map(|&c| pack_color(c));
     let mut out = Vec::with_capacity(scene.primitive_count());
     for (gi, group) in scene.groups.iter().enumerate() {
         for p in group {
@@ -261,22 +263,30 @@ pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
                 a,
                 b: [k.scale as f32, k.inv as f32, k.weight as f32, k.peak_distance as f32],
                 c: [k.peak_slope as f32, radii.next().flatten().unwrap_or(0.0) as f32, 0.0, 0.0],
-                ids: [kind, gi as u32, 0, 0],
+                ids: [kind, gi as u32, colors.next().unwrap_or(0), 0],
             });
         }
     }
     out
 }
 
+/// A linear RGB colour as `GpuPrimitive::ids.z`: 8 bits a channel, red
+/// lowest (GLSL's `unpackUnorm4x8`).
+fn pack_color(c: glam::DVec3) -> u32 {
+    let q = |v: f64| (v.clamp(0.0, 1.0) * 255.0).round() as u32;
+    q(c.x) | q(c.y) << 8 | q(c.z) << 16
+}
+
 fn globals(scene: &Scene, growth: f64, quad: QuadSettings, grid: Option<&GridSpec>) -> GpuGlobals {
     let validity_floor = quad.validity_floor(scene.iso);
     let rgb = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
+    let field = Field::new(scene);
     GpuGlobals {
         march: [
             scene.iso as f32,
             scene.marching.min_step as f32,
             scene.refine_tolerance() as f32,
-            Field::new(scene).lipschitz() as f32,
+            field.lipschitz() as f32,
         ],
         sizes: [
             scene.primitive_count() as u32,
@@ -286,13 +296,18 @@ fn globals(scene: &Scene, growth: f64, quad: QuadSettings, grid: Option<&GridSpe
         ],
         tuning: [growth as f32, validity_floor as f32, grid.map_or(0.0, |g| g.window as f32), 0.0],
         background: rgb(scene.background),
-        surface: rgb(scene.surface),
+        surface: {
+            let mut s = rgb(scene.surface);
+            s[3] = if scene.colors.is_some() { 1.0 } else { 0.0 };
+            s
+        },
         ambient: rgb(scene.ambient),
         material: scene.transparency.map_or([0.0; 4], |t| {
             [t.absorption.x as f32, t.absorption.y as f32, t.absorption.z as f32, t.opacity as f32]
         }),
         grid: grid.map_or([0.0; 4], |g| [g.origin.x as f32, g.origin.y as f32, g.origin.z as f32, g.cell as f32]),
         grid_dims: grid.map_or([0; 4], |g| [g.dims[0], g.dims[1], g.dims[2], g.lists_per_group as u32]),
+        inversion: Inversion::of_field(&field).map_or([0.0; 4], |i| [i.r_ref as f32, i.s as f32, i.ln_w as f32, i.ln_floor as f32]),
     }
 }
 
@@ -622,6 +637,9 @@ impl Renderer {
         let deadline = Instant::now() + self.timeout;
         let handles = self.pipeline(EntryPoint::March, method, &options)?;
         self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad, self.grid.as_ref())])?;
+        if method == Method::FieldInversion {
+            Inversion::of_field(&Field::new(&self.scene)).map_err(|e| anyhow::anyhow!("{}: {e}", self.scene.source))?;
+        }
         if (options.transparent || options.secondary) && matches!(method, Method::LinearBisection | Method::Raa) {
             bail!("{method} marches opaque scenes only: its bisection looks for a first entering crossing; use an Algorithm 1 method for transparency, reflection and refraction");
         }

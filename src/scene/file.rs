@@ -214,6 +214,11 @@ pub enum PrimitiveFile {
         /// A factor on the kernel's radius (R or r) over scene time.
         #[serde(default)]
         radius_scale: Option<ScaleFile>,
+        /// This point's own colour, linear RGB (else the scene's
+        /// `surface`); where blobs blend, their colours blend by their
+        /// share of the field.
+        #[serde(default)]
+        color: Option<[f64; 3]>,
     },
     /// The compact kernel of the unsigned distance to the plane
     /// `normal · p = offset`: a slab of half-width `radius`.

@@ -161,6 +161,9 @@ pub struct Scene {
     pub bounds_explicit: bool,
     /// What moves over scene time.
     pub animation: Animation,
+    /// Each primitive's colour (linear RGB), group by group, when any point
+    /// gives one (the others take `surface`); `None`: all take `surface`.
+    pub colors: Option<Vec<DVec3>>,
 }
 
 impl Scene {
@@ -388,6 +391,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         return Err(c.err("lights", format!("at most 8 lights, got {}", lights.len())));
     }
 
+    let surface = c.color("surface", f.surface)?;
     if f.groups.is_empty() {
         return Err(c.err("groups", "the scene has no groups; give at least one group with one primitive"));
     }
@@ -401,6 +405,9 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
     }
     let mut support = Aabb::empty();
     let mut has_plane = false;
+    // Per-primitive colours, once a point gives one (the earlier ones None).
+    let mut colors: Option<Vec<Option<DVec3>>> = None;
+    let mut prims_before = 0;
     for (gi, g) in f.groups.iter().enumerate() {
         if g.primitives.is_empty() {
             return Err(c.err(format!("groups[{gi}].primitives"), "is empty; every group needs a primitive"));
@@ -409,8 +416,17 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         for (pi, p) in g.primitives.iter().enumerate() {
             let at = format!("groups[{gi}].primitives[{pi}]");
             let prim = match p {
-                file::PrimitiveFile::Point { center, kernel, motion, radius_scale } => {
+                file::PrimitiveFile::Point { center, kernel, motion, radius_scale, color } => {
                     let center = c.vec3(&format!("{at}.center"), *center)?;
+                    if let Some(rgb) = color {
+                        colors.get_or_insert_with(|| vec![None; prims_before + pi]);
+                        let rgb = c.color(&format!("{at}.color"), *rgb)?;
+                        if let Some(v) = colors.as_mut() {
+                            v.push(Some(rgb));
+                        }
+                    } else if let Some(v) = colors.as_mut() {
+                        v.push(None);
+                    }
                     if let Some(m) = motion {
                         animation.primitives.push(((gi, pi), c.motion(&format!("{at}.motion"), m)?));
                     }
@@ -450,6 +466,9 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
                 }
                 file::PrimitiveFile::Plane { normal, offset, radius, weight } => {
                     has_plane = true;
+                    if let Some(v) = colors.as_mut() {
+                        v.push(None);
+                    }
                     Primitive::Plane {
                         normal: c.unit(&format!("{at}.normal"), *normal)?,
                         offset: c.finite(&format!("{at}.offset"), *offset)?,
@@ -460,6 +479,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
             };
             prims.push(prim);
         }
+        prims_before += prims.len();
         groups.push(prims);
     }
     let bounds = match &f.bounds {
@@ -484,7 +504,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         camera: Camera { eye, target, up, fov_y_deg: fov, width: w, height: h },
         background: c.color("background", f.background)?,
         ambient: c.color("ambient", f.ambient)?,
-        surface: c.color("surface", f.surface)?,
+        surface,
         lights,
         iso,
         transparency,
@@ -500,5 +520,6 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         bounds,
         bounds_explicit: f.bounds.is_some(),
         animation,
+        colors: colors.map(|v| v.into_iter().map(|c| c.unwrap_or(surface)).collect()),
     })
 }

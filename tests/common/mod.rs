@@ -83,6 +83,7 @@ pub fn scene(groups: Vec<Vec<Primitive>>, iso: f64, method: Method, min_step: f6
         bounds,
         bounds_explicit: false,
         animation: Default::default(),
+        colors: None,
     };
     s.marching.min_step = min_step;
     s

@@ -1,0 +1,195 @@
+//! mmCIF files: the `_atom_site` loop of the first data block, first model.
+//!
+//! A CIF is a stream of tokens: `data_` blocks, `loop_` headers followed by
+//! their `_category.item` tags and then the values row after row, quoted
+//! strings (`'...'` and `"..."`, closed by a quote followed by white
+//! space), text fields between lines that start with `;`, and `#`
+//! comments. Only the `_atom_site` loop is read: `type_symbol`,
+//! `Cartn_x/y/z`, `label_alt_id`, `auth_asym_id` (else `label_asym_id`)
+//! and `pdbx_PDB_model_num`.
+
+use glam::DVec3;
+
+use super::{Atom, Molecule, MoleculeError, element_case, number};
+
+/// A token and the line it starts on.
+struct Tok<'a> {
+    s: &'a str,
+    line: usize,
+    /// A quoted string or text field (never a keyword or a tag).
+    quoted: bool,
+}
+
+fn tokenize<'a>(text: &'a str, file: &str) -> Result<Vec<Tok<'a>>, MoleculeError> {
+    let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(line), message };
+    let mut out = Vec::new();
+    let mut text_field: Option<usize> = None;
+    for (i, line) in text.lines().enumerate() {
+        let n = i + 1;
+        if let Some(start) = text_field {
+            if line.starts_with(';') {
+                out.push(Tok { s: "", line: start, quoted: true });
+                text_field = None;
+            }
+            continue;
+        }
+        if line.starts_with(';') {
+            text_field = Some(n);
+            continue;
+        }
+        let b = line.as_bytes();
+        let mut k = 0;
+        while k < b.len() {
+            if b[k].is_ascii_whitespace() {
+                k += 1;
+                continue;
+            }
+            if b[k] == b'#' {
+                break;
+            }
+            if b[k] == b'\'' || b[k] == b'"' {
+                let q = b[k];
+                let close = (k + 1..b.len()).find(|&j| b[j] == q && (j + 1 == b.len() || b[j + 1].is_ascii_whitespace()));
+                let Some(j) = close else {
+                    return Err(err(n, format!("a quoted string opened at column {} is not closed on its line", k + 1)));
+                };
+                out.push(Tok { s: &line[k + 1..j], line: n, quoted: true });
+                k = j + 1;
+                continue;
+            }
+            let j = (k..b.len()).find(|&j| b[j].is_ascii_whitespace()).unwrap_or(b.len());
+            out.push(Tok { s: &line[k..j], line: n, quoted: false });
+            k = j;
+        }
+    }
+    if let Some(start) = text_field {
+        return Err(err(start, "a text field (;) opened here never closes: the file is cut short".into()));
+    }
+    Ok(out)
+}
+
+/// Whether a token ends the values of a loop.
+fn is_keyword(t: &Tok) -> bool {
+    if t.quoted {
+        return false;
+    }
+    let lower = t.s.to_ascii_lowercase();
+    t.s.starts_with('_') || lower == "loop_" || lower.starts_with("data_") || lower.starts_with("save_") || lower == "stop_" || lower == "global_"
+}
+
+/// A missing value in CIF.
+fn missing(v: &str) -> bool {
+    v == "." || v == "?"
+}
+
+pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
+    let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(line), message };
+    let toks = tokenize(text, file)?;
+    let mut atoms = Vec::new();
+    let mut extra_models = 0;
+    let mut blocks = 0;
+    let mut i = 0;
+    while i < toks.len() {
+        let t = &toks[i];
+        if !t.quoted && t.s.to_ascii_lowercase().starts_with("data_") {
+            blocks += 1;
+            if blocks > 1 {
+                break;
+            }
+        }
+        if t.quoted || !t.s.eq_ignore_ascii_case("loop_") {
+            i += 1;
+            continue;
+        }
+        let loop_line = t.line;
+        i += 1;
+        let mut tags = Vec::new();
+        while i < toks.len() && !toks[i].quoted && toks[i].s.starts_with('_') {
+            tags.push(toks[i].s.to_ascii_lowercase());
+            i += 1;
+        }
+        let start = i;
+        while i < toks.len() && !is_keyword(&toks[i]) {
+            i += 1;
+        }
+        if !tags.iter().any(|t| t.starts_with("_atom_site.")) {
+            continue;
+        }
+        let values = &toks[start..i];
+        let width = tags.len();
+        if values.len() % width != 0 {
+            let last = values.last().map_or(loop_line, |v| v.line);
+            let have = values.len() % width;
+            return Err(err(
+                last,
+                if i == toks.len() {
+                    format!("the file is cut short inside the _atom_site loop: its last row has {have} of its {width} values")
+                } else {
+                    format!("the _atom_site loop's last row has {have} of its {width} values")
+                },
+            ));
+        }
+        let col = |name: &str| tags.iter().position(|t| t == &format!("_atom_site.{name}"));
+        let need = |name: &str| col(name).ok_or_else(|| err(loop_line, format!("the _atom_site loop has no {name} column")));
+        let (cx, cy, cz) = (need("cartn_x")?, need("cartn_y")?, need("cartn_z")?);
+        let symbol = need("type_symbol")?;
+        let alt_col = col("label_alt_id");
+        let chain_col = col("auth_asym_id").or(col("label_asym_id"));
+        let model_col = col("pdbx_pdb_model_num");
+        let mut first_model: Option<&str> = None;
+        let mut models: Vec<&str> = Vec::new();
+        let mut alt: Option<&str> = None;
+        for row in values.chunks(width) {
+            let line = row[0].line;
+            if let Some(m) = model_col.map(|c| row[c].s) {
+                if !models.contains(&m) {
+                    models.push(m);
+                }
+                if *first_model.get_or_insert(m) != m {
+                    continue;
+                }
+            }
+            if let Some(a) = alt_col.map(|c| row[c].s).filter(|a| !missing(a)) {
+                if *alt.get_or_insert(a) != a {
+                    continue;
+                }
+            }
+            let x = number(row[cx].s, "Cartn_x", file, row[cx].line)?;
+            let y = number(row[cy].s, "Cartn_y", file, row[cy].line)?;
+            let z = number(row[cz].s, "Cartn_z", file, row[cz].line)?;
+            let element = if missing(row[symbol].s) { String::new() } else { element_case(row[symbol].s) };
+            let chain = chain_col.map(|c| row[c].s).filter(|c| !missing(c)).unwrap_or("").to_string();
+            atoms.push(Atom { element, position: DVec3::new(x, y, z), chain, line });
+        }
+        extra_models += models.len().saturating_sub(1);
+    }
+    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEAD: &str = "data_TEST\n#\nloop_\n_atom_site.group_PDB\n_atom_site.type_symbol\n_atom_site.label_alt_id\n\
+                        _atom_site.Cartn_x\n_atom_site.Cartn_y\n_atom_site.Cartn_z\n_atom_site.auth_asym_id\n_atom_site.pdbx_PDB_model_num\n";
+
+    #[test]
+    fn the_atom_site_loop_gives_atoms() {
+        let t = format!("{HEAD}ATOM N . 1.0 2.0 3.0 A 1\nHETATM SE . -1.5 0 2 'B' 1\nATOM C . 9 9 9 A 2\n#\nloop_\n_other.x\n1\n");
+        let m = parse(&t, "t.cif").unwrap();
+        assert_eq!(m.atoms.len(), 2);
+        assert_eq!(m.atoms[1].element, "Se");
+        assert_eq!(m.atoms[1].chain, "B");
+        assert_eq!(m.atoms[1].position, DVec3::new(-1.5, 0.0, 2.0));
+        assert_eq!(m.extra_models, 1);
+    }
+
+    #[test]
+    fn a_row_cut_short_is_an_error_naming_its_line() {
+        let t = format!("{HEAD}ATOM N . 1.0 2.0 3.0 A 1\nATOM C . 1.0 2.0");
+        let e = parse(&t, "t.cif").unwrap_err();
+        assert_eq!(e.to_string(), "t.cif:13: the file is cut short inside the _atom_site loop: its last row has 5 of its 8 values");
+        let t = format!("{HEAD}ATOM N . 1.0 x 3.0 A 1\n");
+        assert_eq!(parse(&t, "t.cif").unwrap_err().to_string(), "t.cif:12: Cartn_y \"x\" is not a number");
+    }
+}

@@ -1,0 +1,192 @@
+//! Molecules: PDB, mmCIF and GRO files, gzipped or not, read into atoms
+//! and turned into scenes of one Gaussian blob per atom (docs/molecules.md).
+//!
+//! The readers are small and written here rather than taken from a crate:
+//! pdbtbx (0.12) was tried first. It reads the five test structures only
+//! with `only_atomic_coords` (SEQADV and SSBOND records of 1TII.pdb stop it
+//! otherwise), it replaces an element it does not know by one guessed from
+//! the atom name without saying so (element `XX` on atom `CG` became
+//! carbon), and its atoms no longer know their line, so neither the
+//! unknown-element warning nor a one-line error naming the line could be
+//! given. PDB and GRO are fixed columns; mmCIF needs a tokenizer for the
+//! `_atom_site` loop (`cif.rs`). Gzip goes through flate2.
+//!
+//! Every problem is one line naming the file and, where there is one, the
+//! line: [`MoleculeError`]. Reading never writes anything.
+
+pub mod cif;
+pub mod elements;
+pub mod gro;
+pub mod pdb;
+pub mod build;
+
+use std::io::Read as _;
+use std::path::Path;
+
+use glam::DVec3;
+
+pub use build::{Coloring, MoleculeOptions};
+
+/// One atom as read: its element symbol as written in the periodic table
+/// (`C`, `Se`, `Zn`; an unrecognised symbol as found, upper case), its
+/// position in ångström, and its chain (empty when the file has none).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Atom {
+    pub element: String,
+    pub position: DVec3,
+    pub chain: String,
+    /// The line it was read from (1-based, of the decompressed text).
+    pub line: usize,
+}
+
+/// The atoms of a file, and what was left out and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Molecule {
+    /// The path, for messages.
+    pub source: String,
+    pub atoms: Vec<Atom>,
+    /// Sites that are not atoms and were skipped (GRO dummy and virtual
+    /// sites), with the first one's line, for the note printed on load.
+    pub skipped_sites: Option<(usize, usize)>,
+    /// Models after the first that were left out (PDB `MODEL`, mmCIF
+    /// `pdbx_PDB_model_num`).
+    pub extra_models: usize,
+}
+
+/// A problem with a molecule file: one line, naming the file and, where
+/// there is one, the line.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{file}{}: {message}", .line.map_or(String::new(), |l| format!(":{l}")))]
+pub struct MoleculeError {
+    pub file: String,
+    pub line: Option<usize>,
+    pub message: String,
+}
+
+/// The formats read, by extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Pdb,
+    Cif,
+    Gro,
+}
+
+/// The format of a molecule file by its extension (`.pdb`, `.ent`, `.cif`,
+/// `.mmcif`, `.gro`, each optionally followed by `.gz`), or `None` for
+/// anything else (a scene file).
+pub fn format_of(path: &Path) -> Option<Format> {
+    let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+    let name = name.strip_suffix(".gz").unwrap_or(&name);
+    let ext = name.rsplit_once('.')?.1;
+    match ext {
+        "pdb" | "ent" => Some(Format::Pdb),
+        "cif" | "mmcif" => Some(Format::Cif),
+        "gro" => Some(Format::Gro),
+        _ => None,
+    }
+}
+
+/// Whether `path` names a molecule file rather than a scene file.
+pub fn is_molecule(path: &Path) -> bool {
+    format_of(path).is_some()
+}
+
+/// The file's text, decompressed when it is gzip (by its magic bytes, so a
+/// `.gz` name is not required). A gzip stream cut short is an error naming
+/// the last whole line it held.
+fn read_text(path: &Path) -> Result<String, MoleculeError> {
+    let file = path.display().to_string();
+    let err = |line: Option<usize>, message: String| MoleculeError { file: file.clone(), line, message };
+    let bytes = std::fs::read(path).map_err(|e| err(None, format!("cannot read: {e}")))?;
+    let bytes = if bytes.starts_with(&[0x1f, 0x8b]) {
+        let mut out = Vec::new();
+        let mut decoder = flate2::read::MultiGzDecoder::new(&bytes[..]);
+        if let Err(e) = decoder.read_to_end(&mut out) {
+            let lines = out.iter().filter(|&&b| b == b'\n').count();
+            let what = if e.kind() == std::io::ErrorKind::UnexpectedEof { "is cut short".to_string() } else { format!("is corrupt ({e})") };
+            return Err(err(Some(lines + 1), format!("the gzip stream {what}: its content ends inside this line")));
+        }
+        out
+    } else {
+        bytes
+    };
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        err(Some(line), "not text: a byte that is not UTF-8".into())
+    })
+}
+
+/// Reads the atoms of a PDB, mmCIF or GRO file (by extension), gzipped or
+/// not. Only the first model is read; alternate locations keep the first
+/// given (blank or `A`). An error is one line; a file without atoms is one.
+pub fn read(path: &Path) -> Result<Molecule, MoleculeError> {
+    let file = path.display().to_string();
+    let Some(format) = format_of(path) else {
+        return Err(MoleculeError {
+            file,
+            line: None,
+            message: "not a molecule file: expected .pdb, .ent, .cif, .mmcif or .gro, optionally .gz".into(),
+        });
+    };
+    let text = read_text(path)?;
+    let molecule = match format {
+        Format::Pdb => pdb::parse(&text, &file)?,
+        Format::Cif => cif::parse(&text, &file)?,
+        Format::Gro => gro::parse(&text, &file)?,
+    };
+    if molecule.atoms.is_empty() {
+        let last = text.lines().count();
+        let what = match format {
+            Format::Pdb => "no ATOM or HETATM record",
+            Format::Cif => "no _atom_site row",
+            Format::Gro => "no atom line",
+        };
+        return Err(MoleculeError { file, line: Some(last.max(1)), message: format!("the file ends here with {what}: no atoms to render") });
+    }
+    Ok(molecule)
+}
+
+/// Parses a coordinate field; the error names the field and its text.
+pub(crate) fn number(field: &str, what: &str, file: &str, line: usize) -> Result<f64, MoleculeError> {
+    let t = field.trim();
+    match t.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(MoleculeError { file: file.into(), line: Some(line), message: format!("{what} {t:?} is not a number") }),
+    }
+}
+
+/// An element symbol as the periodic table writes it: `SE` and `se` become
+/// `Se`.
+pub(crate) fn element_case(symbol: &str) -> String {
+    let mut c = symbol.trim().chars();
+    match c.next() {
+        Some(first) => first.to_ascii_uppercase().to_string() + &c.as_str().to_ascii_lowercase(),
+        None => String::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn formats_come_from_the_extension_with_or_without_gz() {
+        assert_eq!(format_of(Path::new("a/1TII.pdb")), Some(Format::Pdb));
+        assert_eq!(format_of(Path::new("3KPR.PDB.GZ")), Some(Format::Pdb));
+        assert_eq!(format_of(Path::new("6WG6.cif.gz")), Some(Format::Cif));
+        assert_eq!(format_of(Path::new("x.gro")), Some(Format::Gro));
+        assert_eq!(format_of(Path::new("scene.ron")), None);
+        assert_eq!(format_of(Path::new("gz")), None);
+    }
+
+    #[test]
+    fn errors_are_one_line_with_file_and_line() {
+        let e = MoleculeError { file: "a.pdb".into(), line: Some(12), message: "x coordinate \"abc\" is not a number".into() };
+        assert_eq!(e.to_string(), "a.pdb:12: x coordinate \"abc\" is not a number");
+        let e = MoleculeError { file: "a.pdb".into(), line: None, message: "cannot read".into() };
+        assert_eq!(e.to_string(), "a.pdb: cannot read");
+        assert_eq!(element_case("SE"), "Se");
+        assert_eq!(element_case(" c"), "C");
+    }
+}

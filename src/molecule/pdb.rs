@@ -1,0 +1,144 @@
+//! PDB files: the ATOM and HETATM records of the first model, by the fixed
+//! columns of the wwPDB format (v3.3, "Coordinate section"):
+//!
+//! ```text
+//! 1-6 record   13-16 atom name   17 altLoc   22 chain   31-38 x   39-46 y   47-54 z   77-78 element
+//! ```
+//!
+//! An empty element column falls back on the atom name, right-justified in
+//! columns 13-14 by the same convention: ` CA ` is an alpha carbon, `CA  `
+//! calcium. Every other record is ignored.
+
+use glam::DVec3;
+
+use super::{Atom, Molecule, MoleculeError, element_case, elements, number};
+
+/// Columns `a..=b` (1-based, inclusive) of `line`, cut at its end; `None`
+/// when they do not fall on character boundaries (non-ASCII text).
+fn cols(line: &str, a: usize, b: usize) -> Option<&str> {
+    let end = b.min(line.len());
+    if a - 1 >= end {
+        return Some("");
+    }
+    line.get(a - 1..end)
+}
+
+/// The element of a record: columns 77-78, else the atom name's.
+fn element(line: &str) -> String {
+    let col = cols(line, 77, 78).unwrap_or("").trim();
+    if !col.is_empty() {
+        return element_case(col);
+    }
+    let name = cols(line, 13, 16).unwrap_or("");
+    let chars: Vec<char> = name.chars().collect();
+    let first = chars.first().copied().unwrap_or(' ');
+    if first.is_ascii_alphabetic() {
+        let two: String = chars.iter().take(2).collect();
+        let two = element_case(&two);
+        if two.len() == 2 && elements::is_element(&two) {
+            return two;
+        }
+        return element_case(&first.to_string());
+    }
+    element_case(&chars.get(1).map_or(String::new(), |c| c.to_string()))
+}
+
+pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
+    let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(line), message };
+    let mut atoms = Vec::new();
+    let mut models = 0usize;
+    let mut alt: Option<char> = None;
+    let cut_short = !text.is_empty() && !text.ends_with('\n');
+    let count = text.lines().count();
+    for (i, line) in text.lines().enumerate() {
+        let n = i + 1;
+        if line.starts_with("MODEL") {
+            models += 1;
+            continue;
+        }
+        if models > 1 || !(line.starts_with("ATOM  ") || line.starts_with("HETATM")) {
+            continue;
+        }
+        if !line.is_ascii() {
+            return Err(err(n, "an ATOM or HETATM record that is not ASCII text".into()));
+        }
+        if line.len() < 54 {
+            let record = &line[..6].trim();
+            return Err(err(
+                n,
+                if cut_short && n == count {
+                    format!("the file is cut short inside this {record} record ({} of the 54 columns that hold its coordinates)", line.len())
+                } else {
+                    format!("this {record} record has {} columns; its coordinates need columns 31-54", line.len())
+                },
+            ));
+        }
+        let altloc = line.as_bytes()[16] as char;
+        if altloc != ' ' {
+            match alt {
+                None => alt = Some(altloc),
+                Some(a) if a != altloc => continue,
+                _ => {}
+            }
+        }
+        let x = number(&line[30..38], "x coordinate (columns 31-38)", file, n)?;
+        let y = number(&line[38..46], "y coordinate (columns 39-46)", file, n)?;
+        let z = number(&line[46..54], "z coordinate (columns 47-54)", file, n)?;
+        atoms.push(Atom {
+            element: element(line),
+            position: DVec3::new(x, y, z),
+            chain: cols(line, 22, 22).unwrap_or("").trim().to_string(),
+            line: n,
+        });
+    }
+    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models: models.saturating_sub(1) })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const A: &str = "ATOM     61  CG  LYS A 158      22.117  52.841  18.584  1.00 26.02           C  \n";
+
+    #[test]
+    fn records_give_element_position_and_chain() {
+        let m = parse(A, "t.pdb").unwrap();
+        assert_eq!(m.atoms.len(), 1);
+        assert_eq!(m.atoms[0].element, "C");
+        assert_eq!(m.atoms[0].chain, "A");
+        assert_eq!(m.atoms[0].position, DVec3::new(22.117, 52.841, 18.584));
+    }
+
+    #[test]
+    fn the_atom_name_gives_the_element_when_the_column_is_empty() {
+        let ca = "HETATM    1 CA    CA A 301      10.000  10.000  10.000  1.00 20.00\n";
+        let calpha = "ATOM      2  CA  GLY A   1      10.000  10.000  10.000  1.00 20.00\n";
+        let h = "ATOM      3 HD11 LEU A   1      10.000  10.000  10.000  1.00 20.00\n";
+        let m = parse(&format!("{ca}{calpha}{h}"), "t.pdb").unwrap();
+        let els: Vec<&str> = m.atoms.iter().map(|a| a.element.as_str()).collect();
+        assert_eq!(els, ["Ca", "C", "H"]);
+    }
+
+    #[test]
+    fn only_the_first_model_and_the_first_alternate_location_are_read() {
+        let t = "MODEL        1\n\
+                 ATOM      1  N  AGLY A   1       1.000   1.000   1.000  0.50 20.00           N  \n\
+                 ATOM      2  N  BGLY A   1       2.000   2.000   2.000  0.50 20.00           N  \n\
+                 ENDMDL\nMODEL        2\n\
+                 ATOM      1  N   GLY A   1       1.000   1.000   1.000  1.00 20.00           N  \n\
+                 ENDMDL\n";
+        let m = parse(t, "t.pdb").unwrap();
+        assert_eq!(m.atoms.len(), 1);
+        assert_eq!(m.atoms[0].position.x, 1.0);
+        assert_eq!(m.extra_models, 1);
+    }
+
+    #[test]
+    fn bad_records_are_errors_naming_the_line() {
+        let bad = A.replace("22.117", " abcde");
+        let e = parse(&format!("HEADER\n{bad}"), "t.pdb").unwrap_err();
+        assert_eq!(e.to_string(), "t.pdb:2: x coordinate (columns 31-38) \"abcde\" is not a number");
+        let e = parse(&A[..40], "t.pdb").unwrap_err();
+        assert!(e.to_string().starts_with("t.pdb:1: the file is cut short inside this ATOM record"), "{e}");
+    }
+}

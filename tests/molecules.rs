@@ -1,0 +1,220 @@
+//! Molecule files through the binary: every bad input gives a one-line
+//! error (or, for unknown elements, one warning) naming the file and the
+//! line, a non-zero exit, no panic and no output file; good ones render,
+//! with every method including field inversion, and `isomarch scene`
+//! writes the scene they render.
+
+mod common;
+
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use common::*;
+use isomarch::molecule::MoleculeOptions;
+use isomarch::scene::Scene;
+
+fn pdb_1a8o() -> PathBuf {
+    repo_root().join("tests/data/molecules/1A8O.pdb")
+}
+
+fn text_1a8o() -> String {
+    std::fs::read_to_string(pdb_1a8o()).unwrap()
+}
+
+/// The 1-based number of the first line of `text` that starts with `prefix`.
+fn line_of(text: &str, prefix: &str) -> usize {
+    text.lines().position(|l| l.starts_with(prefix)).unwrap() + 1
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(bin()).args(args).output().unwrap()
+}
+
+/// `isomarch render FILE -o OUT.png` at 32x32: must fail with one line of
+/// stderr mentioning every part, and leave no PNG.
+fn assert_refused(file: &Path, parts: &[&str]) {
+    let out_png = file.with_extension("out.png");
+    let out = run(&["render", file.to_str().unwrap(), "-o", out_png.to_str().unwrap(), "--size", "32x32"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "accepted {}: {stderr}", file.display());
+    assert_ne!(out.status.code(), Some(101), "panicked: {stderr}");
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert_eq!(lines.len(), 1, "not one line: {stderr}");
+    for p in parts {
+        assert!(lines[0].contains(p), "{:?} does not mention {p:?}", lines[0]);
+    }
+    assert!(!out_png.exists(), "{} written despite the error", out_png.display());
+}
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+fn gzip(bytes: &[u8]) -> Vec<u8> {
+    let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    e.write_all(bytes).unwrap();
+    e.finish().unwrap()
+}
+
+#[test]
+fn a_pdb_cut_short_inside_a_record_is_refused_naming_the_line() {
+    let dir = scratch("mol-cut");
+    let text = text_1a8o();
+    // Cut in the middle of the 100th atom's coordinates.
+    let line = line_of(&text, "HETATM   10") + 99;
+    let start: usize = text.lines().take(line - 1).map(|l| l.len() + 1).sum();
+    let f = write(&dir, "cut.pdb", text[..start + 40].as_bytes());
+    assert_refused(&f, &["cut.pdb:", &format!(":{line}:"), "cut short"]);
+}
+
+#[test]
+fn a_file_without_atoms_is_refused_naming_its_last_line() {
+    let dir = scratch("mol-empty");
+    let text: String = text_1a8o().lines().filter(|l| !l.starts_with("ATOM") && !l.starts_with("HETATM")).map(|l| format!("{l}\n")).collect();
+    let last = text.lines().count();
+    let f = write(&dir, "empty.pdb", text.as_bytes());
+    assert_refused(&f, &["empty.pdb:", &format!(":{last}:"), "no atoms"]);
+    let f = write(&dir, "empty.gro", b"nothing here\n0\n   1.0 1.0 1.0\n");
+    assert_refused(&f, &["empty.gro:3:", "no atoms"]);
+}
+
+#[test]
+fn coordinates_that_are_not_numbers_are_refused_naming_the_line_and_field() {
+    let dir = scratch("mol-nan");
+    let text = text_1a8o();
+    let line = line_of(&text, "HETATM   20");
+    let bad: String = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| if i + 1 == line { format!("{}  12.x45{}\n", &l[..38], &l[46..]) } else { format!("{l}\n") })
+        .collect();
+    let f = write(&dir, "nan.pdb", bad.as_bytes());
+    assert_refused(&f, &["nan.pdb:", &format!(":{line}:"), "y coordinate", "12.x45", "not a number"]);
+    let cif = "data_X\nloop_\n_atom_site.type_symbol\n_atom_site.Cartn_x\n_atom_site.Cartn_y\n_atom_site.Cartn_z\nC 1.0 2.0 3.0\nN 1.5 nan? 3.0\n";
+    let f = write(&dir, "nan.cif", cif.as_bytes());
+    assert_refused(&f, &["nan.cif:8:", "Cartn_y", "not a number"]);
+}
+
+#[test]
+fn mmcif_and_gro_cut_short_are_refused_naming_the_line() {
+    let dir = scratch("mol-cut2");
+    let cif = "data_X\nloop_\n_atom_site.type_symbol\n_atom_site.Cartn_x\n_atom_site.Cartn_y\n_atom_site.Cartn_z\nC 1.0 2.0 3.0\nN 1.5 2.5";
+    let f = write(&dir, "cut.cif", cif.as_bytes());
+    assert_refused(&f, &["cut.cif:8:", "cut short", "_atom_site"]);
+    let gro = "t\n3\n    1ALA      N    1   0.100   0.200   0.300\n    1ALA     CA    2   0.200   0.2";
+    let f = write(&dir, "cut.gro", gro.as_bytes());
+    assert_refused(&f, &["cut.gro:4:", "cut short"]);
+}
+
+#[test]
+fn a_gzip_stream_cut_short_is_refused_naming_the_line_it_ends_in() {
+    let dir = scratch("mol-gz");
+    let text = text_1a8o();
+    let gz = gzip(text.as_bytes());
+    let f = write(&dir, "cut.pdb.gz", &gz[..gz.len() / 2]);
+    let out = run(&["render", f.to_str().unwrap(), "-o", dir.join("x.png").to_str().unwrap(), "--size", "32x32"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_refused(&f, &["cut.pdb.gz:", "gzip stream is cut short"]);
+    // The line named is inside the file, past its start.
+    let line: usize = stderr.split(':').nth(2).unwrap().trim().parse().unwrap();
+    assert!(line > 10 && line < text.lines().count(), "{stderr}");
+    // The whole stream reads.
+    let f = write(&dir, "whole.pdb.gz", &gz);
+    let m = isomarch::molecule::read(&f).unwrap();
+    assert_eq!(m.atoms.len(), 644);
+}
+
+#[test]
+fn unknown_elements_are_named_in_one_warning_and_take_the_fallback_radius() {
+    let dir = scratch("mol-unknown");
+    let text = text_1a8o();
+    let (a, b) = (line_of(&text, "HETATM   20"), line_of(&text, "HETATM   10"));
+    let bad: String = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| if i + 1 == a || i + 1 == b { format!("{}Xq{}\n", &l[..76], &l[78..]) } else { format!("{l}\n") })
+        .collect();
+    let f = write(&dir, "unknown.pdb", bad.as_bytes());
+    let png = dir.join("unknown.png");
+    let out = run(&["render", f.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "32x32"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.starts_with("warning:")).collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    for part in ["unknown.pdb", "Xq (2 atoms", &format!("first at line {}", a.min(b)), "fallback radius 1.8"] {
+        assert!(warnings[0].contains(part), "{:?} lacks {part:?}", warnings[0]);
+    }
+    assert!(png.exists());
+    let (scene, _) = isomarch::molecule::build::load_scene(&f, &MoleculeOptions::default()).unwrap();
+    assert_eq!(scene.primitive_count(), 644);
+}
+
+#[test]
+fn scene_writes_the_scene_that_the_molecule_renders() {
+    let dir = scratch("mol-scene");
+    let ron = dir.join("1a8o.ron");
+    let out = run(&["scene", pdb_1a8o().to_str().unwrap(), "-o", ron.to_str().unwrap(), "--sharpness", "3", "--color", "chain", "--turntable", "8"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let written = Scene::load(&ron).unwrap();
+    let options = MoleculeOptions { sharpness: 3.0, coloring: isomarch::molecule::Coloring::Chain, turntable: Some(8.0), ..Default::default() };
+    let (direct, _) = isomarch::molecule::build::load_scene(&pdb_1a8o(), &options).unwrap();
+    assert_eq!(Scene { source: String::new(), ..written }, Scene { source: String::new(), ..direct.clone() });
+    assert_eq!(direct.primitive_count(), 644);
+    assert!(direct.animation.camera.is_some(), "the turntable is an orbit of the camera");
+    // The camera sees the whole molecule: every atom inside the view cone.
+    let c = &direct.camera;
+    let axis = (c.target - c.eye).normalize();
+    for p in direct.primitives() {
+        let isomarch::scene::Primitive::Point { center, .. } = p else { unreachable!() };
+        let v = *center - c.eye;
+        let angle = v.normalize().dot(axis).acos().to_degrees();
+        assert!(angle < 0.5 * c.fov_y_deg, "an atom {angle:.1}° off axis");
+    }
+    // Molecule flags given with a scene file are refused.
+    let out = run(&["render", ron.to_str().unwrap(), "-o", dir.join("x.png").to_str().unwrap(), "--sharpness", "2"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--sharpness applies to molecule files"));
+}
+
+/// Every method renders the molecule; field inversion is measured by the
+/// bench against the f64 reference, and refuses scenes it cannot invert.
+#[test]
+fn every_method_renders_a_molecule_and_field_inversion_reports_its_miss_rate() {
+    let dir = scratch("mol-methods");
+    let pdb = pdb_1a8o();
+    for method in isomarch::Method::ALL {
+        let png = dir.join(format!("{method}.png"));
+        let out = run(&["render", pdb.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "48x48", "--method", method.name(), "--validation"]);
+        assert!(out.status.success(), "{method}: {}", String::from_utf8_lossy(&out.stderr));
+        let img = image::open(&png).unwrap().to_rgb8();
+        let lit = img.pixels().filter(|p| p.0.iter().map(|&c| u32::from(c)).sum::<u32>() > 120).count();
+        assert!(lit > 48 * 48 / 10, "{method}: only {lit} pixels show the molecule");
+    }
+    let json = dir.join("bench.json");
+    let out = run(&["bench", pdb.to_str().unwrap(), "--methods", "quadratic-taylor,field-inversion", "--rays", "2048", "--json", json.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let text = report.to_string();
+    assert!(text.contains("field-inversion") && text.contains("miss_rate"), "{text}");
+    // A scene that is no sum of like Gaussians: refused in one line.
+    let out = run(&["render", repo_root().join("scenes/fig10.ron").to_str().unwrap(), "-o", dir.join("f.png").to_str().unwrap(), "--method", "field-inversion", "--size", "16x16"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && stderr.lines().count() == 1 && stderr.contains("field-inversion"), "{stderr}");
+}
+
+#[test]
+fn batch_frames_turn_the_camera_around_the_molecule() {
+    let dir = scratch("mol-turntable");
+    let pattern = dir.join("f_#.png");
+    let out = run(&[
+        "render", pdb_1a8o().to_str().unwrap(), "--turntable", "4", "--frames", "0..2", "--fps", "1", "--size", "40x40",
+        "-o", pattern.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let a = image::open(dir.join("f_0.png")).unwrap().to_rgb8();
+    let b = image::open(dir.join("f_1.png")).unwrap().to_rgb8();
+    assert_ne!(a, b, "a quarter turn later the frame is the same");
+}
