@@ -157,7 +157,9 @@ start() {
         local s
         s="$(timeout 10 sinfo -h -n "$node" -o '%T' 2>/dev/null || true)"
         case "$s" in
-            idle*) break ;;
+            # Up; mixed or allocated when jobs recovered from a run that
+            # stopped uncleanly are still running: they end on their own.
+            idle*|mixed*|alloc*|completing*) break ;;
             down*|drain*|fail*)
                 # Left down by an earlier run that stopped uncleanly.
                 scontrol update NodeName="$node" State=RESUME >/dev/null 2>&1 || true ;;

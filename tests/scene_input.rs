@@ -167,6 +167,7 @@ const OPTIONAL_FIELDS: &[(&str, &str, &str, &str)] = &[
     ("transparency", "iso: 0.5,", "iso: 0.5, transparency: (opacity: 0.3),", "iso: 0.5, transparency: Some((opacity: 0.3)),"),
     ("ior", "iso: 0.5,", "iso: 0.5, transparency: (ior: 1.4),", "iso: 0.5, transparency: (ior: Some(1.4)),"),
     ("growth", "iso: 0.5,", "iso: 0.5, marching: (growth: 2.5),", "iso: 0.5, marching: (growth: Some(2.5)),"),
+    ("refine", "iso: 0.5,", "iso: 0.5, marching: (refine: \"bisection\"),", "iso: 0.5, marching: (refine: Some(\"bisection\")),"),
     (
         "bounds",
         "iso: 0.5,",
