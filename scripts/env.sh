@@ -15,6 +15,17 @@ ISOMARCH_PACKAGES=(
     fonts-dejavu-core                # the font of `isomarch tradeoff`'s plots
 )
 
+# Optional package sets, named in ISOMARCH_WITH (space-separated) by the
+# script that sources this file: `slurm` is a one-node SLURM with its
+# authentication (scripts/slurm-local.sh; the test suite's SLURM test).
+ISOMARCH_PACKAGES_SLURM=(slurm-wlm munge)
+for _isomarch_set in ${ISOMARCH_WITH:-}; do
+    case "$_isomarch_set" in
+        slurm) ISOMARCH_PACKAGES+=("${ISOMARCH_PACKAGES_SLURM[@]}") ;;
+        *) echo "isomarch: ISOMARCH_WITH names an unknown package set $_isomarch_set (known: slurm)" >&2; exit 1 ;;
+    esac
+done
+
 isomarch_install_packages() {
     local missing=()
     for p in "${ISOMARCH_PACKAGES[@]}"; do
@@ -24,8 +35,9 @@ isomarch_install_packages() {
         local sudo=""
         [ "$(id -u)" -eq 0 ] || sudo="sudo"
         echo "isomarch: installing ${missing[*]}" >&2
-        $sudo apt-get update -qq
-        DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+        # Wait for another apt (another script, unattended upgrades) rather than fail.
+        $sudo apt-get -o DPkg::Lock::Timeout=600 update -qq
+        DEBIAN_FRONTEND=noninteractive $sudo apt-get -o DPkg::Lock::Timeout=600 install -y -qq --no-install-recommends "${missing[@]}" >&2
     fi
     if ! command -v cargo >/dev/null 2>&1; then
         if [ -x "$HOME/.cargo/bin/cargo" ]; then

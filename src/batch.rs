@@ -6,6 +6,11 @@ use std::str::FromStr;
 
 use anyhow::{Result, bail};
 
+pub mod merge;
+
+/// The header of a batch's per-frame statistics CSV.
+pub const CSV_HEADER: &str = "frame,time_s,file,width,height,method,steps_per_ray,evals_per_ray,hit_rate,gpu_ms,wall_ms,index_build_ms";
+
 /// Frames `start..end` (end excluded), parsed from Rust range syntax:
 /// `a..b` excludes b, `a..=b` includes it, a lone `n` is one frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -90,6 +95,11 @@ impl Shard {
             let Some(index) = id.checked_sub(min).map(|d| d / step) else {
                 bail!("SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}");
             };
+            if count == 0 || index >= count {
+                bail!(
+                    "SLURM array task {id} would be shard {index} of {count}, which does not exist: the array ids must be consecutive or evenly stepped (--array=0-7 or 0-14:2), not a list such as 0,5"
+                );
+            }
             return Shard::new(index, count, "SLURM array");
         }
         if let Some(index) = env("JOB_COMPLETION_INDEX") {
@@ -155,6 +165,16 @@ mod tests {
             _ => None,
         };
         assert_eq!(Shard::resolve(None, None, stepped).unwrap(), Shard { index: 2, count: 4 });
+        // --array=0,5 gives ids 0 and 5 with MIN 0, STEP 1 and COUNT 2: no shard 5.
+        let listed = |k: &str| match k {
+            "SLURM_ARRAY_TASK_ID" => Some("5".to_string()),
+            "SLURM_ARRAY_TASK_MIN" => Some("0".to_string()),
+            "SLURM_ARRAY_TASK_STEP" => Some("1".to_string()),
+            "SLURM_ARRAY_TASK_COUNT" => Some("2".to_string()),
+            _ => None,
+        };
+        let e = Shard::resolve(None, None, listed).unwrap_err().to_string();
+        assert!(e.contains("task 5 would be shard 5 of 2") && e.contains("0,5"), "{e}");
         let k8s = |k: &str| (k == "JOB_COMPLETION_INDEX").then(|| "1".to_string());
         assert_eq!(Shard::resolve(None, Some(5), k8s).unwrap(), Shard { index: 1, count: 5 });
         assert!(Shard::resolve(None, None, k8s).is_err(), "Kubernetes needs --shard-count");
@@ -218,7 +238,7 @@ pub fn run(
     }
     let mut log = std::fs::OpenOptions::new().create(true).append(true).open(csv).with_context(|| format!("opening {}", csv.display()))?;
     if new_csv {
-        writeln!(log, "frame,time_s,file,width,height,method,steps_per_ray,evals_per_ray,hit_rate,gpu_ms,wall_ms,index_build_ms")?;
+        writeln!(log, "{CSV_HEADER}")?;
     }
     let bar = indicatif::ProgressBar::new(todo.len() as u64);
     bar.set_style(

@@ -68,6 +68,25 @@ enum Command {
     /// printed), DIR/scaling.csv and a log-log plot (DIR/scaling.png and
     /// .svg).
     Scaling(ScalingArgs),
+    /// Merge the per-shard statistics CSVs of `render --frames` (one per
+    /// array task) into one CSV for the whole range, in frame order, after
+    /// checking that every frame of --frames is listed exactly once (none
+    /// missing, none twice, none outside).
+    MergeStats(MergeStatsArgs),
+}
+
+/// `isomarch merge-stats`.
+#[derive(Args)]
+struct MergeStatsArgs {
+    /// The frame range that the shards rendered together (as `render --frames`).
+    #[arg(long, value_name = "RANGE")]
+    frames: isomarch::batch::FrameRange,
+    /// The merged CSV, written atomically.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// The per-shard CSVs (`render --csv`).
+    #[arg(required = true, value_name = "CSV")]
+    inputs: Vec<PathBuf>,
 }
 
 /// `isomarch generate`: what to make.
@@ -299,7 +318,7 @@ impl MarchArgs {
 struct BatchArgs {
     /// Render a sequence of frames, in Rust range syntax: 0..100 excludes
     /// 100, 0..=99 includes 99. Each PNG is written whole or not at all;
-    /// Ctrl-C stops after the frame in flight.
+    /// Ctrl-C (or SIGTERM, as from scancel) stops after the frame in flight.
     #[arg(long, value_name = "RANGE")]
     frames: Option<isomarch::batch::FrameRange>,
     /// Scene time in seconds of a single frame (animated scenes).
@@ -714,15 +733,17 @@ fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Sc
     FileFormat::of("--csv", &csv, &[FileFormat::Csv])?;
     let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
     let flag = Arc::clone(&stop);
+    // Ctrl-C, and SIGTERM and SIGHUP (scancel, a pod's deletion, a closed
+    // terminal): stop between frames, so that no temporary file is left.
     ctrlc::set_handler(move || {
         if flag.swap(true, std::sync::atomic::Ordering::SeqCst) {
-            // A second Ctrl-C: leave now. Files are renamed into
+            // A second signal: leave now. Files are renamed into
             // place whole, so none is half-written.
             std::process::exit(130);
         }
         eprintln!("\nstopping after the frame in flight (Ctrl-C again to quit now)");
     })
-    .context("installing the Ctrl-C handler")?;
+    .context("installing the signal handler")?;
     let gpu = args.gpu.open()?;
     let method = scene.marching.method;
     let job = RenderJob::new(scene, method, size, output.clone(), gpu.timeout);
@@ -870,6 +891,14 @@ fn scene(args: SceneArgs) -> Result<()> {
     Ok(())
 }
 
+/// `isomarch merge-stats`: the shards' statistics CSVs as one.
+fn merge_stats(args: MergeStatsArgs) -> Result<()> {
+    FileFormat::of("-o", &args.output, &[FileFormat::Csv])?;
+    let frames = isomarch::batch::merge::merge_files(&args.inputs, args.frames, &args.output)?;
+    println!("{frames} frames from {} file(s) in {}", args.inputs.len(), args.output.display());
+    Ok(())
+}
+
 fn scaling(args: ScalingArgs) -> Result<()> {
     let ScalingArgs { counts, methods, rays, repeat, seed, ray_seed, gaussian, output, gpu } = args;
     let sweep = isomarch::scaling::Sweep {
@@ -958,7 +987,7 @@ fn finish(ctx: &Context) -> Result<()> {
     bail!("{} Vulkan validation message(s)", messages.len())
 }
 
-/// A batch stopped by Ctrl-C (exit status 130, as shells expect).
+/// A batch stopped by Ctrl-C or SIGTERM (exit status 130, as shells expect).
 #[derive(Debug, thiserror::Error)]
 #[error("interrupted")]
 struct Interrupted;
@@ -973,6 +1002,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Generate(command) => generate(command),
         Command::Scene(args) => scene(args),
         Command::Scaling(args) => scaling(args),
+        Command::MergeStats(args) => merge_stats(args),
     }
 }
 

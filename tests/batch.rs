@@ -1,6 +1,7 @@
 //! Batch frames through the binary: shards cover a range exactly once, the
 //! scheduler's environment picks the shard, and a batch stopped by Ctrl-C
-//! leaves only whole frames and resumes with --skip-existing.
+//! leaves only whole frames and resumes with --skip-existing; merge-stats
+//! joins shards' CSVs. On a real SLURM: tests/slurm.rs.
 
 mod common;
 
@@ -62,6 +63,25 @@ fn two_shards_cover_a_frame_range_exactly_once() {
     let names = assert_only_whole_frames(&dir);
     assert_eq!(names.len(), 7);
     assert!(names.contains("f_0000.png") && names.contains("f_0006.png"));
+    // merge-stats: one CSV in frame order; a shard left out is refused.
+    let merge = |out: &Path, shards: &[&str]| {
+        let mut cmd = Command::new(bin());
+        cmd.args(["merge-stats", "--frames", "0..=6", "-o"]).arg(out);
+        for s in shards {
+            cmd.arg(dir.join(format!("shard{s}.csv")));
+        }
+        cmd.output().unwrap()
+    };
+    let merged = dir.join("merged.csv");
+    let run = merge(&merged, &["1", "0"]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert_eq!(csv_frames(&merged), (0..=6).collect::<Vec<u64>>());
+    let run = merge(&dir.join("half.csv"), &["0"]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success() && err.contains("3 frame(s) missing (1, 3, 5)"), "{err}");
+    assert!(!dir.join("half.csv").exists());
+    let run = merge(&dir.join("twice.csv"), &["0", "1", "0"]);
+    assert!(!run.status.success() && String::from_utf8_lossy(&run.stderr).contains("listed more than once"));
 }
 
 #[test]
@@ -79,6 +99,36 @@ fn the_shard_comes_from_slurm_or_kubernetes() {
     let run = render_batch(&dir, &["--frames", "0..9"], &[("JOB_COMPLETION_INDEX", "2")]);
     assert!(!run.status.success(), "an Indexed Job without --shard-count must be refused");
     assert!(String::from_utf8_lossy(&run.stderr).contains("--shard-count"));
+    // A count of 0 and an index past the count: one line, nothing written.
+    let bad = scratch("scheduler-bad");
+    for (count, index) in [("0", "0"), ("3", "3")] {
+        let run = render_batch(&bad, &["--frames", "0..9", "--shard-count", count], &[("JOB_COMPLETION_INDEX", index)]);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "shard {index} of {count} must be refused");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains(&format!("shard {index} of {count} does not exist")), "{err}");
+    }
+    assert_eq!(std::fs::read_dir(&bad).unwrap().count(), 0, "a refused shard wrote something");
+}
+
+/// docs/k8s-frames-job.yaml: an Indexed Job whose --shard-count is its
+/// completions, with a CSV per pod and --skip-existing.
+#[test]
+fn the_kubernetes_manifest_shards_by_its_completions() {
+    let text = std::fs::read_to_string(repo_root().join("docs/k8s-frames-job.yaml")).unwrap();
+    // The manifest without its comments.
+    let yaml: String = text.lines().filter(|l| !l.trim_start().starts_with('#')).map(|l| format!("{l}\n")).collect();
+    let value = |key: &str| {
+        let line = yaml.lines().find(|l| l.trim_start().starts_with(key)).unwrap_or_else(|| panic!("no {key}"));
+        line.split_once(key).unwrap().1.trim().to_string()
+    };
+    assert_eq!(value("completionMode:"), "Indexed");
+    let completions = value("completions:");
+    let count = yaml.split("--shard-count").nth(1).expect("--shard-count").split_whitespace().next().unwrap();
+    assert_eq!(count, completions, "--shard-count must equal completions");
+    for needed in ["--skip-existing", "frames-task-$JOB_COMPLETION_INDEX.csv", "--frames"] {
+        assert!(yaml.contains(needed), "the manifest lacks {needed}");
+    }
 }
 
 #[test]
