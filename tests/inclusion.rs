@@ -15,7 +15,7 @@ use isomarch::field::quad::{QuadSettings, ValidityScope};
 use isomarch::layout::GpuRay;
 use isomarch::render::{MarchOptions, Renderer};
 use isomarch::render::rays::{Ray, protocol_rays};
-use isomarch::scene::{Aabb, Primitive, Scene};
+use isomarch::scene::{Primitive, Scene};
 use isomarch::Method;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -142,27 +142,11 @@ fn f64_bounds(field: &Field, method: Method, quad: QuadSettings, queries: &[GpuR
         .collect()
 }
 
-/// A plane slab with blobs above it, like fig16.
-fn plane_scene() -> Scene {
-    let mut s = scene(
-        vec![vec![
-            Primitive::Plane { normal: DVec3::Y, offset: 0.0, radius: 1.0, weight: 1.0 },
-            compact(DVec3::new(0.0, 1.5, 0.0), 2.0),
-            gaussian(DVec3::new(1.5, 1.0, 0.5), 1.0, 2.0, 0.5),
-        ]],
-        0.5,
-        Method::QuadraticTaylor,
-        1e-3,
-    );
-    s.bounds = Aabb { min: DVec3::new(-4.0, -1.5, -4.0), max: DVec3::new(4.0, 4.0, 4.0) };
-    s
-}
-
 fn all_scenes() -> Vec<(String, Scene)> {
     let mut v: Vec<(String, Scene)> = (0..3u64)
         .flat_map(|seed| [false, true].map(|max| (format!("seed {seed} max={max}"), random_scene(seed, max, Method::QuadraticTaylor))))
         .collect();
-    v.push(("plane".into(), plane_scene()));
+    v.push(("plane".into(), plane_scene(false)));
     v
 }
 
