@@ -35,6 +35,19 @@ pub fn bin() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_isomarch"))
 }
 
+/// Runs the binary with `args`, validation on and a generous deadline;
+/// fails the test when it fails.
+pub fn run_ok(args: &[&str]) -> std::process::Output {
+    let out = std::process::Command::new(bin()).args(args).args(["--validation", "--timeout", "300"]).output().unwrap();
+    assert!(out.status.success(), "{args:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    out
+}
+
+/// A JSON file the binary wrote.
+pub fn json(path: &std::path::Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
 /// A fresh, empty scratch folder for one test.
 pub fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("isomarch-test-{}-{name}", std::process::id()));
