@@ -52,8 +52,9 @@ fn an_unknown_primitive_kind_poisons_every_evaluation_with_nan() {
 #[test]
 fn gpu_values_gradients_and_segment_slopes_equal_the_f64_mirror() {
     let ctx = gpu();
-    for (seed, max) in [(1u64, false), (2, true)] {
-        let s = random_scene(seed, max, Method::Segment);
+    // Random blobs (sum, max) and a plane slab with blobs (the plane's
+    // branch of the segment bound).
+    for (seed, s) in [(1u64, random_scene(1, false, Method::Segment)), (2, random_scene(2, true, Method::Segment)), (3, plane_scene(false))] {
         let field = Field::new(&s);
         let scale = field.groups.iter().map(|g| g.iter().map(|p| p.kernel().weight).sum::<f64>()).fold(0.0, f64::max);
         let lipschitz = field.lipschitz();

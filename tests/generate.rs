@@ -7,7 +7,7 @@ mod common;
 use std::path::Path;
 use std::process::{Command, Output};
 
-use common::{bin, scratch};
+use common::{bin, json, run_ok, scratch};
 use glam::DVec3;
 use isomarch::scene::{Kernel, Primitive, Scene};
 
@@ -136,16 +136,6 @@ fn bad_arguments_are_refused_in_one_line() {
         assert!(!path.exists(), "{name} was written");
     }
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
-}
-
-fn run_ok(args: &[&str]) -> Output {
-    let out = Command::new(bin()).args(args).args(["--validation", "--timeout", "300"]).output().unwrap();
-    assert!(out.status.success(), "{args:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
-    out
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 /// The index's fields hold sane values for a scene of `primitives`.

@@ -100,3 +100,85 @@ fn refractive_fig16_matches_its_golden() {
     check_golden("fig16-quadratic-taylor-96", &shaded);
     check_golden("fig16-quadratic-taylor-96-steps", &heat);
 }
+
+/// Where the expected mean steps per ray are kept, with how they were made.
+fn step_counts_path() -> PathBuf {
+    repo_root().join("tests").join("data").join("step-counts.csv")
+}
+
+/// The size of the frames whose steps are counted.
+const STEP_COUNT_SIZE: u32 = 64;
+
+/// The methods each shipped scene is counted with: every method on opaque
+/// scenes; transparent and dielectric ones refuse the bisection baselines.
+fn counted_methods(scene: &Scene) -> Vec<Method> {
+    Method::ALL
+        .iter()
+        .copied()
+        .filter(|m| scene.transparency.is_none() || !matches!(m, Method::LinearBisection | Method::Raa))
+        .collect()
+}
+
+/// The heatmaps clamp at 75 steps and allow 8/255, so a regression of a
+/// step or two is invisible in them: the mean steps per ray (every ray
+/// spawned for a pixel, as `render --stats` reports it) of every method on
+/// every shipped scene must stay within 1% of tests/data/step-counts.csv.
+/// Rows name their method, whatever the scene file's own method is.
+/// `UPDATE_STEP_COUNTS=1` rewrites the file.
+#[test]
+fn mean_steps_per_ray_of_every_method_on_every_shipped_scene_match_the_record() {
+    let ctx = gpu();
+    let mut names: Vec<String> = std::fs::read_dir(repo_root().join("scenes"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".ron"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 6, "only {names:?} in scenes/");
+    let mut measured = Vec::new();
+    for name in &names {
+        let scene = Scene::load(&repo_root().join("scenes").join(name)).unwrap();
+        for method in counted_methods(&scene) {
+            let size = (STEP_COUNT_SIZE, STEP_COUNT_SIZE);
+            let job = RenderJob::new(scene.clone(), method, size, PathBuf::new(), std::time::Duration::from_secs(300));
+            let (_, stats) = render_frame(&ctx, &job).unwrap();
+            measured.push((name.trim_end_matches(".ron").to_string(), method.to_string(), stats.steps_per_ray));
+        }
+    }
+    assert_no_validation(&ctx);
+    let path = step_counts_path();
+    if std::env::var("UPDATE_STEP_COUNTS").is_ok_and(|v| v == "1") {
+        let mut text = String::from(
+            "# Mean steps per ray (every ray spawned for a pixel, all generations) of each method on each shipped\n\
+             # scene, rendered at 64x64 at scene time 0 with the scene file's other marching settings, on lavapipe.\n\
+             # Written by: UPDATE_STEP_COUNTS=1 cargo test --release --test golden mean_steps\n\
+             # Checked to within 1% by that test (tests/golden.rs).\n\
+             scene,method,steps_per_ray\n",
+        );
+        for (scene, method, steps) in &measured {
+            text.push_str(&format!("{scene},{method},{steps:.4}\n"));
+        }
+        std::fs::write(&path, text).unwrap();
+        return;
+    }
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e} (create it with UPDATE_STEP_COUNTS=1)", path.display()));
+    let mut expected = std::collections::HashMap::new();
+    for line in text.lines().filter(|l| !l.starts_with('#') && !l.starts_with("scene,") && !l.trim().is_empty()) {
+        let fields: Vec<&str> = line.split(',').collect();
+        assert_eq!(fields.len(), 3, "{}: bad row {line:?}", path.display());
+        let steps: f64 = fields[2].parse().unwrap_or_else(|e| panic!("{}: {line:?}: {e}", path.display()));
+        expected.insert((fields[0].to_string(), fields[1].to_string()), steps);
+    }
+    let mut failures = Vec::new();
+    for (scene, method, steps) in &measured {
+        match expected.remove(&(scene.clone(), method.clone())) {
+            None => failures.push(format!("{scene} {method}: {steps:.4} steps per ray, no row in the record")),
+            Some(e) if (steps - e).abs() > 0.01 * e => {
+                failures.push(format!("{scene} {method}: {steps:.4} steps per ray, recorded {e:.4} ({:+.2}%)", 100.0 * (steps - e) / e))
+            }
+            Some(_) => {}
+        }
+    }
+    failures.extend(expected.keys().map(|(s, m)| format!("{s} {m}: recorded but not measured (no such scene or method)")));
+    assert!(failures.is_empty(), "mean steps per ray differ from {}:\n{}", path.display(), failures.join("\n"));
+}

@@ -15,7 +15,7 @@ use isomarch::field::quad::{QuadSettings, ValidityScope};
 use isomarch::layout::GpuRay;
 use isomarch::render::{MarchOptions, Renderer};
 use isomarch::render::rays::{Ray, protocol_rays};
-use isomarch::scene::{Aabb, Primitive, Scene};
+use isomarch::scene::{Primitive, Scene};
 use isomarch::Method;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -142,27 +142,11 @@ fn f64_bounds(field: &Field, method: Method, quad: QuadSettings, queries: &[GpuR
         .collect()
 }
 
-/// A plane slab with blobs above it, like fig16.
-fn plane_scene() -> Scene {
-    let mut s = scene(
-        vec![vec![
-            Primitive::Plane { normal: DVec3::Y, offset: 0.0, radius: 1.0, weight: 1.0 },
-            compact(DVec3::new(0.0, 1.5, 0.0), 2.0),
-            gaussian(DVec3::new(1.5, 1.0, 0.5), 1.0, 2.0, 0.5),
-        ]],
-        0.5,
-        Method::QuadraticTaylor,
-        1e-3,
-    );
-    s.bounds = Aabb { min: DVec3::new(-4.0, -1.5, -4.0), max: DVec3::new(4.0, 4.0, 4.0) };
-    s
-}
-
 fn all_scenes() -> Vec<(String, Scene)> {
     let mut v: Vec<(String, Scene)> = (0..3u64)
         .flat_map(|seed| [false, true].map(|max| (format!("seed {seed} max={max}"), random_scene(seed, max, Method::QuadraticTaylor))))
         .collect();
-    v.push(("plane".into(), plane_scene()));
+    v.push(("plane".into(), plane_scene(false)));
     v
 }
 
@@ -356,4 +340,86 @@ fn raa_ranges_contain_the_field_on_gpu_and_f64() {
         }
     }
     assert_no_validation(&ctx);
+}
+
+/// Where each inclusion method's mean bound width is recorded.
+fn bound_widths_path() -> std::path::PathBuf {
+    repo_root().join("tests").join("data").join("bound-widths.csv")
+}
+
+/// The bounds are checked for validity above, so a looser valid bound
+/// would pass there: each method's mean width on a fixed set of intervals
+/// (the f64 mirror, which the GPU's bounds equal, on `cases(scene, 17,
+/// 300)` of every test scene) must stay within 2% of the record in
+/// tests/data/bound-widths.csv, and so must the mean fraction of each
+/// interval where the bound is valid. `UPDATE_BOUND_WIDTHS=1` rewrites it.
+/// The width of a forward bound is the mean over 21 points of its valid
+/// interval of hi(τ) - lo(τ); RAA's is its range; both relative to the
+/// scene's largest group weight.
+#[test]
+fn bound_widths_stay_at_their_recorded_tightness() {
+    let mut measured = Vec::new();
+    for (name, s) in all_scenes() {
+        let field = Field::new(&s);
+        let queries = cases(&s, 17, 300);
+        let sc = scale(&s);
+        for (method, quad) in INCLUSION {
+            let bounds = f64_bounds(&field, method, quad, &queries);
+            let (mut width, mut kept) = (0.0, 0.0);
+            for (q, b) in queries.iter().zip(&bounds) {
+                let r = Ray::from_gpu(q);
+                let len = (b.t_valid - r.t0).max(0.0);
+                width += (0..=20).map(|i| b.hi(len * f64::from(i) / 20.0) - b.lo(len * f64::from(i) / 20.0)).sum::<f64>() / 21.0 / sc;
+                kept += if r.t1 > r.t0 { len / (r.t1 - r.t0) } else { 1.0 };
+            }
+            let n = queries.len() as f64;
+            let label = format!("{method}{}{}", if quad.extension { "" } else { " no-extension" }, if quad.validity == ValidityScope::Every { " every" } else { "" });
+            measured.push((name.clone(), label, width / n, kept / n));
+        }
+        let raa: f64 = queries
+            .iter()
+            .map(|q| {
+                let r = Ray::from_gpu(q);
+                let (lo, hi) = isomarch::field::fold::field_raa(&field, r.o, r.d, r.t0, r.t1);
+                (hi - lo) / sc
+            })
+            .sum();
+        measured.push((name.clone(), "raa".into(), raa / queries.len() as f64, 1.0));
+    }
+    let path = bound_widths_path();
+    if std::env::var("UPDATE_BOUND_WIDTHS").is_ok_and(|v| v == "1") {
+        let mut text = String::from(
+            "# Mean width (relative to the largest group weight) and mean valid fraction of each inclusion method's\n\
+             # f64 bounds on a fixed set of intervals of the test scenes of tests/inclusion.rs.\n\
+             # Written by: UPDATE_BOUND_WIDTHS=1 cargo test --release --test inclusion bound_widths\n\
+             # Checked to within 2% by that test.\n\
+             scene,method,mean_width,mean_valid_fraction\n",
+        );
+        for (scene, method, width, kept) in &measured {
+            text.push_str(&format!("{scene},{method},{width:.6e},{kept:.6}\n"));
+        }
+        std::fs::write(&path, text).unwrap();
+        return;
+    }
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e} (create it with UPDATE_BOUND_WIDTHS=1)", path.display()));
+    let mut expected = std::collections::HashMap::new();
+    for line in text.lines().filter(|l| !l.starts_with('#') && !l.starts_with("scene,") && !l.trim().is_empty()) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f.len(), 4, "{}: bad row {line:?}", path.display());
+        let num = |s: &str| s.parse::<f64>().unwrap_or_else(|e| panic!("{}: {line:?}: {e}", path.display()));
+        expected.insert((f[0].to_string(), f[1].to_string()), (num(f[2]), num(f[3])));
+    }
+    let mut failures = Vec::new();
+    for (scene, method, width, kept) in &measured {
+        match expected.remove(&(scene.clone(), method.clone())) {
+            None => failures.push(format!("{scene} {method}: no row in the record")),
+            Some((w, k)) => {
+                if (width - w).abs() > 0.02 * w || (kept - k).abs() > 0.02 * k {
+                    failures.push(format!("{scene} {method}: width {width:.4e} (recorded {w:.4e}, {:+.2}%), valid fraction {kept:.4} (recorded {k:.4})", 100.0 * (width - w) / w));
+                }
+            }
+        }
+    }
+    failures.extend(expected.keys().map(|(s, m)| format!("{s} {m}: recorded but not measured")));
+    assert!(failures.is_empty(), "bound widths differ from {}:\n{}", path.display(), failures.join("\n"));
 }

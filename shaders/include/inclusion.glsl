@@ -313,8 +313,8 @@ vec3 compact_plane_raa(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
     float sigma = s.y;
     if (abs(sigma) < 1e-9) return vec3(slab_value(pr, sa), 0.0, 0.0);
     float sb = plane_on_ray(pr, o, u, tb).x;
-    vec3 r = compact_raa(pr.b.z, pr.b.y * sigma * sigma, 0.0, min(sa / sigma, sb / sigma), max(sa / sigma, sb / sigma));
-    return sigma < 0.0 ? vec3(r.x, -r.y, r.z) : r;
+    // x = s / σ = sa / σ + (t - ta) runs with t whatever σ's sign.
+    return compact_raa(pr.b.z, pr.b.y * sigma * sigma, 0.0, sa / sigma, sb / sigma);
 }
 
 // Bottom-up quadratic bounds (Section 6.2), mirrored from

@@ -224,10 +224,10 @@ impl PrimitiveKind for PlanePrim {
         let Some((inv_r2, xa)) = plane_as_point(&self.kernel, sa, sigma) else {
             return Affine { x0: self.kernel.value(sa * sa), x1: 0.0, e: 0.0 };
         };
+        // x = s / σ = xa + (t - ta) runs with t whatever σ's sign, so the
+        // affine form is in the ray's own ε.
         let xb = self.distance(o + tb * u) / sigma;
-        let r = compact_raa(&self.kernel, inv_r2, 0.0, xa.min(xb), xa.max(xb));
-        // x runs against t when σ < 0: flip the ε term.
-        if sigma < 0.0 { Affine { x1: -r.x1, ..r } } else { r }
+        compact_raa(&self.kernel, inv_r2, 0.0, xa, xb)
     }
 }
 

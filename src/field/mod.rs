@@ -151,6 +151,19 @@ mod tests {
         .unwrap()
     }
 
+    /// A plane slab summed with a blob, and a second group (a blob).
+    fn plane_scene() -> Scene {
+        Scene::parse(
+            r#"Scene(camera: (eye: (0.0, 0.0, 8.0), target: (0.0, 0.0, 0.0)), iso: 0.5, groups: [
+                (primitives: [Plane(normal: (0.0, 1.0, 0.0), offset: 0.0, radius: 1.0),
+                              Point(center: (0.0, 1.2, 0.0), kernel: Compact(radius: 2.0))]),
+                (primitives: [Point(center: (2.0, 0.5, 0.0), kernel: Compact(radius: 1.5))]),
+            ], bounds: Some((min: (-3.0, -2.0, -3.0), max: (3.0, 3.0, 3.0))))"#,
+            "test",
+        )
+        .unwrap()
+    }
+
     #[test]
     fn gradient_matches_central_differences() {
         let f = Field::new(&two_group_scene());
@@ -179,21 +192,52 @@ mod tests {
     #[test]
     fn segment_lipschitz_bounds_the_derivative_on_random_segments() {
         use rand::{Rng, SeedableRng};
-        let f = Field::new(&two_group_scene());
-        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        // Points, and the plane branch of the bound (a slab in a sum).
+        for (name, scene) in [("points", two_group_scene()), ("plane", plane_scene())] {
+            let f = Field::new(&scene);
+            let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+            let mut sloped = 0;
+            for _ in 0..2000 {
+                let o = DVec3::new(rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0));
+                let u = DVec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize();
+                let (ta, tb) = (rng.random_range(0.0..4.0), rng.random_range(4.0..8.0));
+                let lambda = f.segment_lipschitz(o, u, ta, tb);
+                assert!(lambda <= f.lipschitz() + 1e-12);
+                sloped += usize::from(lambda > 0.0);
+                let h = 1e-5;
+                for i in 0..200 {
+                    let t = ta + (tb - ta) * f64::from(i) / 200.0;
+                    let d = (f.value(o + (t + h) * u) - f.value(o + (t - h) * u)) / (2.0 * h);
+                    assert!(d.abs() <= lambda * (1.0 + 1e-6) + 1e-9, "{name}: |f'| = {} > λ = {lambda}", d.abs());
+                }
+            }
+            assert!(sloped > 500, "{name}: only {sloped} segments meet a support");
+        }
+    }
+
+    /// A plane slab summed with a blob: the slab's affine form must be in
+    /// the ray's own ε whichever way the ray crosses the plane, or the sum's
+    /// range misses the field on short intervals (where the linear terms
+    /// dominate; long ones hide it in their error terms).
+    #[test]
+    fn raa_of_a_plane_summed_with_a_blob_contains_the_field_on_short_intervals() {
+        use rand::{Rng, SeedableRng};
+        let f = Field::new(&plane_scene());
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
+        let mut downward = 0;
         for _ in 0..2000 {
-            let o = DVec3::new(rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0));
+            let o = DVec3::new(rng.random_range(-1.5..1.5), rng.random_range(-0.5..2.0), rng.random_range(-1.5..1.5));
             let u = DVec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize();
-            let (ta, tb) = (rng.random_range(0.0..4.0), rng.random_range(4.0..8.0));
-            let lambda = f.segment_lipschitz(o, u, ta, tb);
-            assert!(lambda <= f.lipschitz() + 1e-12);
-            let h = 1e-5;
-            for i in 0..200 {
-                let t = ta + (tb - ta) * f64::from(i) / 200.0;
-                let d = (f.value(o + (t + h) * u) - f.value(o + (t - h) * u)) / (2.0 * h);
-                assert!(d.abs() <= lambda * (1.0 + 1e-6) + 1e-9, "|f'| = {} > λ = {lambda}", d.abs());
+            let len = 10f64.powf(rng.random_range(-3.0..-1.0));
+            let (lo, hi) = fold::field_raa(&f, o, u, 0.0, len);
+            downward += usize::from(u.y < 0.0);
+            for i in 0..=20 {
+                let t = len * f64::from(i) / 20.0;
+                let v = f.value(o + t * u);
+                assert!(v >= lo - 1e-12 && v <= hi + 1e-12, "RAA [{lo}, {hi}] misses f = {v} at t = {t} on [0, {len}] along {u} from {o}");
             }
         }
+        assert!(downward > 500, "only {downward} rays cross the plane downwards");
     }
 
     #[test]

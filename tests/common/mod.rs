@@ -35,6 +35,19 @@ pub fn bin() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_isomarch"))
 }
 
+/// Runs the binary with `args`, validation on and a generous deadline;
+/// fails the test when it fails.
+pub fn run_ok(args: &[&str]) -> std::process::Output {
+    let out = std::process::Command::new(bin()).args(args).args(["--validation", "--timeout", "300"]).output().unwrap();
+    assert!(out.status.success(), "{args:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    out
+}
+
+/// A JSON file the binary wrote.
+pub fn json(path: &std::path::Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
 /// A fresh, empty scratch folder for one test.
 pub fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("isomarch-test-{}-{name}", std::process::id()));
@@ -111,5 +124,19 @@ pub fn random_scene(seed: u64, max_of_groups: bool, method: Method) -> Scene {
         .collect();
     let mut s = scene(groups, iso, method, 1.0);
     s.marching.min_step = 1e-4 * s.min_radius();
+    s
+}
+
+/// A plane slab (normal +y through the origin, support radius 1) with a
+/// compact and a Gaussian blob above it, like fig16: one group, or the
+/// slab and the blobs in two groups combined by max. Bounds are explicit
+/// (the slab is infinite).
+pub fn plane_scene(max_of_groups: bool) -> Scene {
+    let slab = Primitive::Plane { normal: DVec3::Y, offset: 0.0, radius: 1.0, weight: 1.0 };
+    let blobs = vec![compact(DVec3::new(0.0, 1.5, 0.0), 2.0), gaussian(DVec3::new(1.5, 1.0, 0.5), 1.0, 2.0, 0.5)];
+    let groups = if max_of_groups { vec![vec![slab], blobs] } else { vec![[vec![slab], blobs].concat()] };
+    let mut s = scene(groups, 0.5, Method::QuadraticTaylor, 1e-3);
+    s.bounds = Aabb { min: DVec3::new(-4.0, -1.5, -4.0), max: DVec3::new(4.0, 4.0, 4.0) };
+    s.bounds_explicit = true;
     s
 }

@@ -1,0 +1,93 @@
+//! `render --aov depth,steps,normal`: the OpenEXR channels hold the frame's
+//! results pixel for pixel, and for a single blob sphere its closed form.
+
+mod common;
+
+use std::path::PathBuf;
+
+use common::*;
+use glam::DVec3;
+use isomarch::Method;
+use isomarch::layout::FLAG_HIT;
+use isomarch::render::offscreen::{RenderJob, render_frame};
+use isomarch::scene::Scene;
+
+/// One compact blob off the image centre (so that a flipped or transposed
+/// image cannot match), seen from +z.
+const SPHERE: &str = r#"Scene(
+    camera: (eye: (0.0, 0.0, 3.5), target: (0.0, 0.0, 0.0), fov_y: 40.0, resolution: (40, 32)),
+    iso: 0.5,
+    marching: (method: "quadratic-taylor", min_step: 0.0002),
+    groups: [(primitives: [Point(center: (0.6, 0.35, 0.0), kernel: Compact(radius: 2.0))])],
+)"#;
+
+/// A channel of the EXR's first layer, row-major, top row first.
+fn channel(exr: &exr::prelude::FlatImage, name: &str) -> Vec<f32> {
+    let c = exr.layer_data[0].channel_data.list.iter().find(|c| c.name.to_string() == name).unwrap_or_else(|| panic!("no channel {name}"));
+    c.sample_data.values_as_f32().collect()
+}
+
+#[test]
+fn exr_aovs_hold_the_frames_results_and_the_spheres_closed_form() {
+    let dir = scratch("aovs");
+    let scene_path = dir.join("sphere.ron");
+    std::fs::write(&scene_path, SPHERE).unwrap();
+    let exr_path = dir.join("sphere.exr");
+    run_ok(&["render", scene_path.to_str().unwrap(), "-o", dir.join("sphere.png").to_str().unwrap(), "--aov", "depth,steps,normal", "--aov-output", exr_path.to_str().unwrap()]);
+    let exr = exr::prelude::read_all_flat_layers_from_file(&exr_path).unwrap();
+    let (w, h) = (40usize, 32usize);
+    assert_eq!((exr.layer_data[0].size.width(), exr.layer_data[0].size.height()), (w, h));
+    let (z, steps) = (channel(&exr, "Z"), channel(&exr, "steps"));
+    let normal = [channel(&exr, "normal.X"), channel(&exr, "normal.Y"), channel(&exr, "normal.Z")];
+
+    // The frame's results, marched in this process: the same numbers.
+    let ctx = gpu();
+    let scene = Scene::load(&scene_path).unwrap();
+    let job = RenderJob::new(scene.clone(), Method::QuadraticTaylor, (w as u32, h as u32), PathBuf::new(), std::time::Duration::from_secs(300));
+    let (frame, _) = render_frame(&ctx, &job).unwrap();
+    assert_no_validation(&ctx);
+    for (i, p) in frame.pixels.iter().enumerate() {
+        let hit = p.counts[3] & FLAG_HIT != 0;
+        assert_eq!(z[i].to_bits(), if hit { p.hit[3] } else { f32::INFINITY }.to_bits(), "pixel {i}: Z {} against the frame's {:?}", z[i], p.hit);
+        assert_eq!(steps[i], p.counts[0] as f32, "pixel {i}: steps");
+        for a in 0..3 {
+            assert_eq!(normal[a][i].to_bits(), p.hit[a].to_bits(), "pixel {i}: normal axis {a}");
+        }
+    }
+
+    // The closed form: rays from the eye through pixel centres (the
+    // camera's pinhole model, written here) meet the sphere of radius
+    // R sqrt(1 - iso^(1/3)) about the blob's centre.
+    let (centre, rho) = (DVec3::new(0.6, 0.35, 0.0), 2.0 * (1.0 - f64::cbrt(0.5)).sqrt());
+    let eye = DVec3::new(0.0, 0.0, 3.5);
+    let half_h = 20f64.to_radians().tan();
+    let half_w = half_h * w as f64 / h as f64;
+    let (mut hits, mut misses) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            let sx = (2.0 * (x as f64 + 0.5) / w as f64 - 1.0) * half_w;
+            let sy = (1.0 - 2.0 * (y as f64 + 0.5) / h as f64) * half_h;
+            let d = DVec3::new(sx, sy, -1.0).normalize();
+            let b = (eye - centre).dot(d);
+            let closest2 = (eye - centre).length_squared() - b * b;
+            if (closest2.sqrt() - rho).abs() < 1e-3 * rho {
+                continue;
+            }
+            if closest2 < rho * rho {
+                let t = -b - (rho * rho - closest2).sqrt();
+                assert!((f64::from(z[i]) - t).abs() < 2e-4 * 2.0 + 1e-5, "pixel ({x}, {y}): Z {} against the sphere's {t}", z[i]);
+                let n = DVec3::new(normal[0][i].into(), normal[1][i].into(), normal[2][i].into());
+                let expected = (eye + t * d - centre) / rho;
+                assert!(n.dot(expected) > 0.999, "pixel ({x}, {y}): normal {n} against {expected}");
+                assert!(steps[i] >= 1.0, "pixel ({x}, {y}): a hit in {} steps", steps[i]);
+                hits += 1;
+            } else {
+                assert_eq!(z[i], f32::INFINITY, "pixel ({x}, {y}): Z {} where the ray passes the sphere", z[i]);
+                assert_eq!([normal[0][i], normal[1][i], normal[2][i]], [0.0; 3], "pixel ({x}, {y}): a normal on a miss");
+                misses += 1;
+            }
+        }
+    }
+    assert!(hits > 200 && misses > 200, "{hits} hits, {misses} misses: the sphere is not framed");
+}

@@ -1,0 +1,150 @@
+//! `isomarch bench` end to end: a small run's table and JSON (fields,
+//! ratios, and the steps marching the same rays gives), `--cull` on and off
+//! giving identical results, and `--growth` reaching the marcher.
+
+mod common;
+
+use common::*;
+use isomarch::Method;
+use isomarch::output::MarchStats;
+use isomarch::render::rays::protocol_rays;
+use isomarch::render::{MarchOptions, Renderer};
+use isomarch::scene::Scene;
+use serde_json::Value;
+
+const RAYS: usize = 512;
+
+/// `bench SCENE --rays 512 --json F` with `extra` flags: its stdout and JSON.
+fn bench(scene: &str, extra: &[&str], name: &str) -> (String, Value) {
+    let dir = scratch(name);
+    let path = dir.join("bench.json");
+    let scene = repo_root().join("scenes").join(scene);
+    let mut args = vec!["bench", scene.to_str().unwrap(), "--rays", "512", "--json", path.to_str().unwrap()];
+    args.extend(extra);
+    let out = run_ok(&args);
+    (String::from_utf8_lossy(&out.stdout).into_owned(), json(&path))
+}
+
+fn num(v: &Value, key: &str) -> f64 {
+    v[key].as_f64().unwrap_or_else(|| panic!("{key} missing or not a number in {v}"))
+}
+
+/// The rows of a report, by label.
+fn rows(report: &Value) -> Vec<&Value> {
+    report["methods"].as_array().unwrap_or_else(|| panic!("no methods array: {report}")).iter().collect()
+}
+
+/// Mean steps per ray of `method` on the protocol rays of `scene` (as
+/// bench marches them: centred on the box, unshaded).
+fn steps_per_ray(scene: &Scene, method: Method, growth: Option<f64>, seed: u64) -> f64 {
+    let ctx = gpu();
+    let scene = scene.recentred(scene.bounds.center());
+    let rays = protocol_rays(&scene.bounds, RAYS, seed);
+    let mut renderer = Renderer::new(&ctx, &scene).unwrap();
+    let options = MarchOptions { shade: false, growth: growth.or(scene.marching.growth), ..MarchOptions::for_scene(&scene) };
+    let out = renderer.march(method, options, &rays, |_| {}).unwrap();
+    assert_no_validation(&ctx);
+    MarchStats::of(&out.results, None).steps_per_ray
+}
+
+#[test]
+fn bench_reports_every_method_with_ratios_to_the_first() {
+    let (table, report) = bench("fig10.ron", &["--methods", "segment,quadratic-taylor,sphere"], "bench-e2e");
+    let scene = Scene::load(&repo_root().join("scenes/fig10.ron")).unwrap();
+    assert!(report["scene"].as_str().is_some_and(|s| s.ends_with("fig10.ron")), "{}", report["scene"]);
+    assert!(report["device"].as_str().is_some_and(|d| !d.is_empty()), "{}", report["device"]);
+    assert_eq!(report["rays"].as_u64(), Some(RAYS as u64));
+    assert_eq!(report["seed"].as_u64(), Some(isomarch::bench::DEFAULT_SEED));
+    assert_eq!(num(&report, "min_step"), scene.marching.min_step);
+    assert_eq!(report["max_steps"].as_u64(), Some(u64::from(scene.marching.max_steps)));
+    let reference = num(&report, "reference_hit_rate");
+    assert!(reference > 0.2 && reference < 0.9, "reference hit rate {reference}");
+    assert!(report["reference_crossings"].is_null() && report["index"].is_null(), "fig10 is opaque and has no index: {report}");
+    let rows = rows(&report);
+    let labels: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
+    assert_eq!(labels, ["segment", "quadratic-taylor", "sphere"]);
+    let first = rows[0];
+    for (row, method) in rows.iter().zip([Method::Segment, Method::QuadraticTaylor, Method::Sphere]) {
+        let steps = num(row, "steps_per_ray");
+        // The figures are those of marching the same seeded rays.
+        let own = steps_per_ray(&scene, method, None, isomarch::bench::DEFAULT_SEED);
+        assert!((steps - own).abs() <= 1e-9 * own, "{method}: bench says {steps} steps per ray, marching gives {own}");
+        assert!((num(row, "step_ratio") - steps / num(first, "steps_per_ray")).abs() < 1e-12, "{method}: step ratio {row}");
+        match (row["ns_per_ray"].as_f64(), row["time_ratio"].as_f64()) {
+            (Some(ns), Some(ratio)) => {
+                assert!(ns > 0.0 && (ratio - ns / num(first, "ns_per_ray")).abs() < 1e-12, "{method}: time ratio {row}");
+            }
+            (None, None) => {}
+            _ => panic!("{method}: a time without a ratio or the reverse: {row}"),
+        }
+        // Every method finds the reference's hits on fig10.
+        assert!((num(row, "hit_rate") - reference).abs() < 1e-12, "{method}: hit rate {row} against {reference}");
+        for k in ["miss_rate", "false_hit_rate", "out_of_steps_rate"] {
+            assert_eq!(num(row, k), 0.0, "{method}: {k} in {row}");
+        }
+        assert!(num(row, "evals_per_ray") > 0.0 && num(row, "max_abs_error") <= scene.marching.min_step, "{method}: {row}");
+        assert!(row["validity_kept"].is_null(), "{method}: {row}");
+        // The table has its row.
+        assert!(table.lines().any(|l| l.starts_with(&format!("| {method} | {steps:.2} |"))), "no row for {method}:\n{table}");
+    }
+    assert_eq!(num(first, "step_ratio"), 1.0);
+    // Fewer steps than segment tracing, and sphere tracing more (Figure 10).
+    assert!(num(rows[1], "step_ratio") < 0.8 && num(rows[2], "step_ratio") > 2.0, "{report}");
+}
+
+/// Culling only skips work: hits, normals and steps are identical per ray
+/// (on the library, every ray; through `bench --cull both`, the rows).
+#[test]
+fn culling_on_and_off_give_identical_results() {
+    let ctx = gpu();
+    for name in ["default.ron", "fig10-gauss.ron"] {
+        let s = Scene::load(&repo_root().join("scenes").join(name)).unwrap();
+        let rays = protocol_rays(&s.bounds, 2048, 9);
+        let mut renderer = Renderer::new(&ctx, &s).unwrap();
+        for method in [Method::Segment, Method::QuadraticTaylor, Method::Quadratic, Method::Raa] {
+            let options = MarchOptions { shade: false, ..MarchOptions::for_scene(&s) };
+            let on = renderer.march(method, MarchOptions { cull: true, ..options }, &rays, |_| {}).unwrap().results;
+            let off = renderer.march(method, MarchOptions { cull: false, ..options }, &rays, |_| {}).unwrap().results;
+            let hits = on.iter().filter(|r| r.counts[3] & isomarch::layout::FLAG_HIT != 0).count();
+            assert!(hits > 200, "{name} {method}: only {hits} hits");
+            for (i, (a, b)) in on.iter().zip(&off).enumerate() {
+                assert_eq!((a.counts[0], a.counts[3]), (b.counts[0], b.counts[3]), "{name} {method} ray {i}: steps or flags differ");
+                assert_eq!(a.hit.map(f32::to_bits), b.hit.map(f32::to_bits), "{name} {method} ray {i}: hit differs");
+            }
+        }
+    }
+    assert_no_validation(&ctx);
+    let (_, report) = bench("default.ron", &["--methods", "segment,quadratic-taylor", "--cull", "both"], "bench-cull");
+    let rows = rows(&report);
+    let labels: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
+    assert_eq!(labels, ["segment", "segment (no cull)", "quadratic-taylor", "quadratic-taylor (no cull)"]);
+    for pair in rows.chunks(2) {
+        for k in ["steps_per_ray", "hit_rate", "miss_rate", "false_hit_rate", "mean_abs_error", "max_abs_error", "out_of_steps_rate"] {
+            assert_eq!(pair[0][k], pair[1][k], "{k}: {} against {}", pair[0], pair[1]);
+        }
+    }
+}
+
+/// `--growth k` is the interval growth every method marches with: the
+/// steps equal marching the rays with growth k, segment's default (1.5)
+/// changes nothing, and another k changes the steps.
+#[test]
+fn bench_growth_reaches_the_marcher() {
+    let scene = Scene::load(&repo_root().join("scenes/fig10.ron")).unwrap();
+    let steps = |flags: &[&str], name: &str| {
+        let (_, report) = bench("fig10.ron", &[&["--methods", "segment,quadratic-taylor"], flags].concat(), name);
+        rows(&report).iter().map(|r| num(r, "steps_per_ray")).collect::<Vec<_>>()
+    };
+    let default = steps(&[], "growth-default");
+    let slow = steps(&["--growth", "1"], "growth-1");
+    for (i, method) in [Method::Segment, Method::QuadraticTaylor].into_iter().enumerate() {
+        let own = steps_per_ray(&scene, method, Some(1.0), isomarch::bench::DEFAULT_SEED);
+        assert!((slow[i] - own).abs() <= 1e-9 * own, "{method}: bench --growth 1 says {} steps, marching with growth 1 gives {own}", slow[i]);
+        // Intervals that never grow cost steps.
+        assert!(slow[i] > 1.05 * default[i], "{method}: growth 1 takes {} steps per ray, the default {}", slow[i], default[i]);
+    }
+    assert_eq!(steps(&["--growth", "1.5"], "growth-1.5")[0], default[0], "segment's default growth is 1.5");
+    let bad = std::process::Command::new(bin()).args(["bench", "scenes/fig10.ron", "--growth", "0.5"]).current_dir(repo_root()).output().unwrap();
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success() && err.contains("--growth") && err.trim().lines().count() == 1, "{err}");
+}
