@@ -67,7 +67,7 @@ March march_start(float tmin, float tmax) {
 
 // A crossing between a and b (f changes sign; `entering`: f < 0 at a; fa
 // and fb f at the ends, fa 0 where unknown) is to be refined, one field
-// evaluation per loop turn (refine_turn).
+// evaluation per loop turn (refine_next, refine_update).
 void begin_refinement(float a, float fa, float b, float fb, bool entering, inout March m) {
     m.ra = a;
     m.rb = b;
