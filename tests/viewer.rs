@@ -327,6 +327,16 @@ impl Session {
         }
     }
 
+    /// What the window shows once it has changed from `before` (or, when
+    /// it does not within 10 s, what it still shows) and settled.
+    fn settled_after(&self, before: &image::RgbImage) -> (String, image::RgbImage) {
+        let started = std::time::Instant::now();
+        while started.elapsed().as_secs() < 10 && grab(&self.x, &self.window) == *before {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        self.settled()
+    }
+
     /// Esc, then the viewer's clean exit.
     fn close(mut self) {
         self.send(&["key", "Escape"]);
@@ -386,4 +396,83 @@ fn the_window_shows_the_offscreen_frame() {
     // deterministic. Measured: 0. A swapped swizzle differs by 75.
     let d = max_channel_diff(&shown, &offscreen);
     assert!(d == 0, "the window differs from the offscreen frame by up to {d} per channel (saved {})", dir.display());
+}
+
+/// The scene time a title shows ("t = 1.00 s").
+fn title_time(title: &str) -> f64 {
+    let at = title.find("t = ").unwrap_or_else(|| panic!("no time in the title: {title}"));
+    title[at + 4..].split(' ').next().unwrap().parse().unwrap_or_else(|_| panic!("no time in the title: {title}"))
+}
+
+#[test]
+fn t_turns_transparency_off_and_space_plays_and_pauses() {
+    // fig16 is transparent (refracting) and animated.
+    let dir = scratch("viewer-t-space");
+    let args = ["--size", "64x64", "--method", "quadratic-taylor", "--time", "1"];
+    let s = Session::open(&[&["scenes/fig16.ron", "--paused"][..], &args[..]].concat());
+    let (_, refracting) = s.settled();
+    // T: the opaque scene, as `render` draws it without transparency.
+    s.send(&["key", "t"]);
+    let (title, opaque) = s.settled_after(&refracting);
+    assert!(title.contains("opaque"), "title after T: {title}");
+    assert!(opaque != refracting, "T did not change the image");
+    let text = std::fs::read_to_string(repo_root().join("scenes/fig16.ron")).unwrap();
+    let line = text.lines().find(|l| l.trim_start().starts_with("transparency:")).unwrap();
+    let opaque_scene = dir.join("fig16-opaque.ron");
+    std::fs::write(&opaque_scene, text.replace(line, "    transparency: None,")).unwrap();
+    let expected = render(&opaque_scene, &dir.join("opaque.png"), &args);
+    opaque.save(dir.join("opaque-window.png")).unwrap();
+    assert_eq!(max_channel_diff(&opaque, &expected), 0, "after T the window is not the opaque frame (saved {})", dir.display());
+    // T again: back to refracting, as `render` draws the scene.
+    s.send(&["key", "t"]);
+    let (title, back) = s.settled_after(&opaque);
+    assert!(!title.contains("opaque"), "title after T again: {title}");
+    let expected = render(Path::new("scenes/fig16.ron"), &dir.join("refracting.png"), &args);
+    assert_eq!(max_channel_diff(&back, &expected), 0, "after T twice the window is not the transparent frame (saved {})", dir.display());
+    // Space: scene time runs with the wall clock, and the blobs move.
+    let t0 = title_time(&title);
+    s.send(&["key", "space"]);
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let title = s.title();
+    assert!(!title.contains("paused") && title_time(&title) > t0 + 0.5, "1.5 s after Space: {title} (from t = {t0})");
+    assert!(grab(&s.x, &s.window) != back, "the blobs did not move while playing");
+    // Space again: paused, time stands still.
+    s.send(&["key", "space"]);
+    let (title, paused) = s.settled();
+    assert!(title.contains("paused"), "after Space again: {title}");
+    std::thread::sleep(std::time::Duration::from_millis(1000));
+    let later = s.title();
+    assert_eq!(title_time(&later), title_time(&title), "time ran on while paused: {title} then {later}");
+    assert!(grab(&s.x, &s.window) == paused, "the paused image changed");
+    s.close();
+}
+
+/// Pixels that are not the background (the top-left corner's colour).
+fn covered(img: &image::RgbImage) -> usize {
+    let bg = *img.get_pixel(0, 0);
+    img.pixels().filter(|p| **p != bg).count()
+}
+
+#[test]
+fn drag_orbits_and_the_wheel_zooms() {
+    let s = Session::open(&["scenes/fig10.ron", "--size", "96x96", "--paused"]);
+    let (_, start) = s.settled();
+    // A drag to the right turns the view; dragging back returns it.
+    let drag = |from: &str, to: &str| {
+        s.send(&["mousemove", "--window", &s.window, from, "48", "mousedown", "1", "mousemove", "--window", &s.window, to, "48", "mouseup", "1"]);
+    };
+    drag("20", "60");
+    let (_, turned) = s.settled_after(&start);
+    assert!(turned != start, "a drag did not turn the view");
+    drag("60", "20");
+    let (_, back) = s.settled_after(&turned);
+    assert!(max_channel_diff(&back, &start) <= 1, "dragging back did not return the view");
+    // Wheel up zooms in: the surface covers more of the window; down returns.
+    s.send(&["click", "4"]);
+    let (_, near) = s.settled_after(&back);
+    assert!(covered(&near) > covered(&back) + 50, "wheel up did not zoom in: {} -> {} pixels", covered(&back), covered(&near));
+    s.send(&["click", "5"]);
+    let (_, far) = s.settled_after(&near);
+    assert!(max_channel_diff(&far, &start) <= 1, "wheel down did not undo wheel up");
+    s.close();
 }
