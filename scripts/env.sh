@@ -7,7 +7,7 @@ set -euo pipefail
 ISOMARCH_PACKAGES=(
     mesa-vulkan-drivers libvulkan1   # lavapipe and the Vulkan loader
     vulkan-validationlayers          # the tests run with validation on
-    xvfb xdotool                     # window tests: a display, and input sent to it
+    xvfb xdotool x11-apps            # window tests: a display, input sent to it, xwd to grab what it shows
     libx11-6 libx11-xcb1 libxcursor1 libxi6 libxrandr2 libxkbcommon-x11-0  # loaded by the window code
     cmake python3 g++ git            # shaderc is built from source by cargo
     glslang-tools spirv-tools vulkan-tools  # inspection: glslangValidator, spirv-dis, vulkaninfo

@@ -229,3 +229,250 @@ fn the_viewer_turns_a_molecule_on_its_turntable() {
     }
     assert_ne!(shots[0], shots[1], "a quarter turn later the view is the same");
 }
+
+/// The pixels of a window as the X server holds them, grabbed with xwd
+/// (x11-apps) and decoded here: a ZPixmap of 24 or 32 bits per pixel with
+/// the visual's channel masks.
+fn grab(x: &Xvfb, window: &str) -> image::RgbImage {
+    let out = Command::new("xwd")
+        .args(["-silent", "-id", window])
+        .env("DISPLAY", &x.display)
+        .output()
+        .expect("the window tests need xwd (apt-get install x11-apps; `bash scripts/test.sh` installs it)");
+    assert!(out.status.success(), "xwd failed: {}", String::from_utf8_lossy(&out.stderr));
+    decode_xwd(&out.stdout)
+}
+
+fn decode_xwd(data: &[u8]) -> image::RgbImage {
+    let word = |i: usize| u32::from_be_bytes(data[4 * i..4 * i + 4].try_into().unwrap());
+    assert!(data.len() >= 100 && word(1) == 7 && word(2) == 2, "not an XWD version 7 ZPixmap");
+    let (header, w, h, msb_first, bpp, stride) = (word(0), word(4), word(5), word(7) == 1, word(11), word(12));
+    let masks = [word(14), word(15), word(16)];
+    assert!(bpp == 24 || bpp == 32, "xwd: {bpp} bits per pixel");
+    let start = header as usize + 12 * word(19) as usize;
+    let bytes = (bpp / 8) as usize;
+    image::RgbImage::from_fn(w, h, |px, py| {
+        let at = start + py as usize * stride as usize + px as usize * bytes;
+        let raw = &data[at..at + bytes];
+        let v = if msb_first { raw.iter().fold(0u32, |v, &b| v << 8 | u32::from(b)) } else { raw.iter().rev().fold(0u32, |v, &b| v << 8 | u32::from(b)) };
+        image::Rgb(masks.map(|m| ((v & m) >> m.trailing_zeros()) as u8))
+    })
+}
+
+/// `isomarch view` in a window of its own X server, driven by xdotool.
+struct Session {
+    x: Xvfb,
+    child: Child,
+    window: String,
+}
+
+impl Session {
+    fn open(args: &[&str]) -> Session {
+        let x = Xvfb::start();
+        let mut child = Command::new(bin())
+            .arg("view")
+            .args(args)
+            .args(["--validation", "--timeout", "300"])
+            .current_dir(repo_root())
+            .env("DISPLAY", &x.display)
+            .env_remove("WAYLAND_DISPLAY")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let started = std::time::Instant::now();
+        let window = loop {
+            let out = xdotool(&x, &["search", "--name", "^isomarch"]);
+            if let Some(id) = String::from_utf8_lossy(&out.stdout).lines().next() {
+                break id.to_string();
+            }
+            assert!(started.elapsed().as_secs() < 120, "no viewer window after 120 s");
+            if child.try_wait().unwrap().is_some() {
+                let out = child.wait_with_output().unwrap();
+                panic!("the viewer exited ({:?}) before opening its window:\n{}", out.status, String::from_utf8_lossy(&out.stderr));
+            }
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        };
+        xdotool(&x, &["windowfocus", "--sync", &window]);
+        Session { x, child, window }
+    }
+
+    fn title(&self) -> String {
+        String::from_utf8_lossy(&xdotool(&self.x, &["getwindowname", &self.window]).stdout).trim().to_string()
+    }
+
+    fn send(&self, args: &[&str]) {
+        let out = xdotool(&self.x, args);
+        assert!(out.status.success(), "xdotool {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    }
+
+    /// What the window shows once the view rests on a full-resolution
+    /// frame (no preview, nothing being refined) and two grabs agree.
+    fn settled(&self) -> (String, image::RgbImage) {
+        let started = std::time::Instant::now();
+        let mut last: Option<image::RgbImage> = None;
+        loop {
+            assert!(started.elapsed().as_secs() < 120, "the view did not settle in 120 s: {}", self.title());
+            std::thread::sleep(std::time::Duration::from_millis(150));
+            let title = self.title();
+            if !title.contains("ms/frame") || title.contains("refining") || title.contains("preview") {
+                last = None;
+                continue;
+            }
+            let img = grab(&self.x, &self.window);
+            if last.as_ref() == Some(&img) && self.title() == title {
+                return (title, img);
+            }
+            last = Some(img);
+        }
+    }
+
+    /// What the window shows once it has changed from `before` (or, when
+    /// it does not within 10 s, what it still shows) and settled.
+    fn settled_after(&self, before: &image::RgbImage) -> (String, image::RgbImage) {
+        let started = std::time::Instant::now();
+        while started.elapsed().as_secs() < 10 && grab(&self.x, &self.window) == *before {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        self.settled()
+    }
+
+    /// Esc, then the viewer's clean exit.
+    fn close(mut self) {
+        self.send(&["key", "Escape"]);
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+        while self.child.try_wait().unwrap().is_none() {
+            if std::time::Instant::now() > deadline {
+                let _ = self.child.kill();
+                panic!("the viewer did not close on Esc");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        let out = self.child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "view failed ({:?}):\n{stderr}", out.status);
+        assert!(!stderr.contains("validation"), "validation messages:\n{stderr}");
+    }
+}
+
+/// `isomarch render` of `scene` offscreen.
+fn render(scene: &Path, out: &Path, args: &[&str]) -> image::RgbImage {
+    let rendered = Command::new(bin())
+        .arg("render")
+        .arg(scene)
+        .arg("-o")
+        .arg(out)
+        .args(args)
+        .args(["--validation", "--timeout", "300"])
+        .current_dir(repo_root())
+        .output()
+        .unwrap();
+    assert!(rendered.status.success(), "render failed:\n{}", String::from_utf8_lossy(&rendered.stderr));
+    image::open(out).unwrap().to_rgb8()
+}
+
+/// The largest difference of one channel of one pixel.
+fn max_channel_diff(a: &image::RgbImage, b: &image::RgbImage) -> u8 {
+    assert_eq!(a.dimensions(), b.dimensions());
+    a.as_raw().iter().zip(b.as_raw()).map(|(p, q)| p.abs_diff(*q)).max().unwrap_or(0)
+}
+
+#[test]
+fn the_window_shows_the_offscreen_frame() {
+    // What the swapchain presents, grabbed from the X server (the BGRA
+    // swizzle included), against `isomarch render` of the same frame.
+    let dir = scratch("viewer-presented");
+    let s = Session::open(&["scenes/fig10.ron", "--size", "96x96", "--paused"]);
+    let (title, shown) = s.settled();
+    s.close();
+    let offscreen = render(Path::new("scenes/fig10.ron"), &dir.join("fig10.png"), &["--size", "96x96"]);
+    shown.save(dir.join("fig10-window.png")).unwrap();
+    eprintln!("title: {title}");
+    assert!(colours(&dir.join("fig10.png"), (96, 96)) > 50, "the offscreen frame is nearly uniform");
+    assert_eq!(shown.dimensions(), (96, 96), "the window's size");
+    // No tolerance: the frame is copied byte for byte into the swapchain
+    // image (a transfer, no format conversion, sRGB-encoded either way) and
+    // Xvfb's 24-bit TrueColor visual keeps 8 bits a channel; lavapipe is
+    // deterministic. Measured: 0. A swapped swizzle differs by 75.
+    let d = max_channel_diff(&shown, &offscreen);
+    assert!(d == 0, "the window differs from the offscreen frame by up to {d} per channel (saved {})", dir.display());
+}
+
+/// The scene time a title shows ("t = 1.00 s").
+fn title_time(title: &str) -> f64 {
+    let at = title.find("t = ").unwrap_or_else(|| panic!("no time in the title: {title}"));
+    title[at + 4..].split(' ').next().unwrap().parse().unwrap_or_else(|_| panic!("no time in the title: {title}"))
+}
+
+#[test]
+fn t_turns_transparency_off_and_space_plays_and_pauses() {
+    // fig16 is transparent (refracting) and animated.
+    let dir = scratch("viewer-t-space");
+    let args = ["--size", "64x64", "--method", "quadratic-taylor", "--time", "1"];
+    let s = Session::open(&[&["scenes/fig16.ron", "--paused"][..], &args[..]].concat());
+    let (_, refracting) = s.settled();
+    // T: the opaque scene, as `render` draws it without transparency.
+    s.send(&["key", "t"]);
+    let (title, opaque) = s.settled_after(&refracting);
+    assert!(title.contains("opaque"), "title after T: {title}");
+    assert!(opaque != refracting, "T did not change the image");
+    let text = std::fs::read_to_string(repo_root().join("scenes/fig16.ron")).unwrap();
+    let line = text.lines().find(|l| l.trim_start().starts_with("transparency:")).unwrap();
+    let opaque_scene = dir.join("fig16-opaque.ron");
+    std::fs::write(&opaque_scene, text.replace(line, "    transparency: None,")).unwrap();
+    let expected = render(&opaque_scene, &dir.join("opaque.png"), &args);
+    opaque.save(dir.join("opaque-window.png")).unwrap();
+    assert_eq!(max_channel_diff(&opaque, &expected), 0, "after T the window is not the opaque frame (saved {})", dir.display());
+    // T again: back to refracting, as `render` draws the scene.
+    s.send(&["key", "t"]);
+    let (title, back) = s.settled_after(&opaque);
+    assert!(!title.contains("opaque"), "title after T again: {title}");
+    let expected = render(Path::new("scenes/fig16.ron"), &dir.join("refracting.png"), &args);
+    assert_eq!(max_channel_diff(&back, &expected), 0, "after T twice the window is not the transparent frame (saved {})", dir.display());
+    // Space: scene time runs with the wall clock, and the blobs move.
+    let t0 = title_time(&title);
+    s.send(&["key", "space"]);
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let title = s.title();
+    assert!(!title.contains("paused") && title_time(&title) > t0 + 0.5, "1.5 s after Space: {title} (from t = {t0})");
+    assert!(grab(&s.x, &s.window) != back, "the blobs did not move while playing");
+    // Space again: paused, time stands still.
+    s.send(&["key", "space"]);
+    let (title, paused) = s.settled();
+    assert!(title.contains("paused"), "after Space again: {title}");
+    std::thread::sleep(std::time::Duration::from_millis(1000));
+    let later = s.title();
+    assert_eq!(title_time(&later), title_time(&title), "time ran on while paused: {title} then {later}");
+    assert!(grab(&s.x, &s.window) == paused, "the paused image changed");
+    s.close();
+}
+
+/// Pixels that are not the background (the top-left corner's colour).
+fn covered(img: &image::RgbImage) -> usize {
+    let bg = *img.get_pixel(0, 0);
+    img.pixels().filter(|p| **p != bg).count()
+}
+
+#[test]
+fn drag_orbits_and_the_wheel_zooms() {
+    let s = Session::open(&["scenes/fig10.ron", "--size", "96x96", "--paused"]);
+    let (_, start) = s.settled();
+    // A drag to the right turns the view; dragging back returns it.
+    let drag = |from: &str, to: &str| {
+        s.send(&["mousemove", "--window", &s.window, from, "48", "mousedown", "1", "mousemove", "--window", &s.window, to, "48", "mouseup", "1"]);
+    };
+    drag("20", "60");
+    let (_, turned) = s.settled_after(&start);
+    assert!(turned != start, "a drag did not turn the view");
+    drag("60", "20");
+    let (_, back) = s.settled_after(&turned);
+    assert!(max_channel_diff(&back, &start) <= 1, "dragging back did not return the view");
+    // Wheel up zooms in: the surface covers more of the window; down returns.
+    s.send(&["click", "4"]);
+    let (_, near) = s.settled_after(&back);
+    assert!(covered(&near) > covered(&back) + 50, "wheel up did not zoom in: {} -> {} pixels", covered(&back), covered(&near));
+    s.send(&["click", "5"]);
+    let (_, far) = s.settled_after(&near);
+    assert!(max_channel_diff(&far, &start) <= 1, "wheel down did not undo wheel up");
+    s.close();
+}
