@@ -26,7 +26,8 @@ for _ in $(seq 600); do
     window=$(xdotool search --name '^isomarch' 2>/dev/null | head -n 1 || true)
     if [ -n "$window" ]; then
         title=$(xdotool getwindowname "$window")
-        case "$title" in *refining*|*preview*) ;; *) break ;; esac
+        # A frame has landed (the title reports its time) and is final.
+        case "$title" in *refining*|*preview*) ;; *ms/frame*) break ;; esac
     fi
     sleep 0.5
 done
