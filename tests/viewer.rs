@@ -138,65 +138,23 @@ fn xdotool(x: &Xvfb, args: &[&str]) -> Output {
 
 #[test]
 fn the_viewer_answers_its_controls() {
-    let x = Xvfb::start();
     let dir = scratch("viewer-keys");
-    let mut child = Command::new(bin())
-        .args(["view", "scenes/fig10.ron", "--size", "96x80", "--paused", "--validation", "--timeout", "300", "--screenshot-dir"])
-        .arg(&dir)
-        .current_dir(repo_root())
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    // The window, once it exists.
-    let started = std::time::Instant::now();
-    let window = loop {
-        let out = xdotool(&x, &["search", "--name", "^isomarch"]);
-        if let Some(id) = String::from_utf8_lossy(&out.stdout).lines().next() {
-            break id.to_string();
-        }
-        assert!(started.elapsed().as_secs() < 120, "no viewer window after 120 s");
-        if child.try_wait().unwrap().is_some() {
-            let out = child.wait_with_output().unwrap();
-            panic!(
-                "the viewer exited ({:?}) before opening its window:\n{}\n{}",
-                out.status,
-                String::from_utf8_lossy(&out.stdout),
-                String::from_utf8_lossy(&out.stderr)
-            );
-        }
-        std::thread::sleep(std::time::Duration::from_millis(200));
-    };
-    xdotool(&x, &["windowfocus", "--sync", &window]);
+    let s = Session::open(&["scenes/fig10.ron", "--size", "96x80", "--paused", "--screenshot-dir", dir.to_str().unwrap()]);
     let pause = || std::thread::sleep(std::time::Duration::from_millis(400));
     // M: segment (the scene's) to the next marcher; H: heatmap; S: save it;
     // Right: one frame on; a drag and a wheel turn orbit and zoom.
     for key in ["m", "h", "Right", "s"] {
-        xdotool(&x, &["key", key]);
+        s.send(&["key", key]);
         pause();
     }
-    xdotool(&x, &["mousemove", "--window", &window, "20", "40", "mousedown", "1", "mousemove", "--window", &window, "60", "40", "mouseup", "1"]);
-    xdotool(&x, &["click", "4"]);
+    s.send(&["mousemove", "--window", &s.window, "20", "40", "mousedown", "1", "mousemove", "--window", &s.window, "60", "40", "mouseup", "1"]);
+    s.send(&["click", "4"]);
     pause();
-    let title = String::from_utf8_lossy(&xdotool(&x, &["getwindowname", &window]).stdout).into_owned();
+    let title = s.title();
     assert!(title.contains("linear-taylor") && title.contains("paused") && title.contains("steps/ray"), "title: {title}");
-    xdotool(&x, &["key", "Escape"]);
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
-    while child.try_wait().unwrap().is_none() {
-        if std::time::Instant::now() > deadline {
-            let _ = child.kill();
-            panic!("the viewer did not close on Esc");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(100));
-    }
-    let out = child.wait_with_output().unwrap();
+    let out = s.close();
     let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "view failed ({:?}):\n{stdout}\n{stderr}", out.status);
     assert!(stdout.contains("last: linear-taylor"), "stdout: {stdout}");
-    assert!(!stderr.contains("validation"), "validation messages:\n{stderr}");
     // S saved the heatmap as shown, at frame 1 (t = 0.04 s at 25 fps).
     let shots: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
     assert_eq!(shots.len(), 1, "{shots:?}");
@@ -338,7 +296,8 @@ impl Session {
     }
 
     /// Esc, then the viewer's clean exit.
-    fn close(mut self) {
+    /// Closes the view with Esc: its output, once it has exited cleanly.
+    fn close(mut self) -> std::process::Output {
         self.send(&["key", "Escape"]);
         let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
         while self.child.try_wait().unwrap().is_none() {
@@ -352,6 +311,7 @@ impl Session {
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(out.status.success(), "view failed ({:?}):\n{stderr}", out.status);
         assert!(!stderr.contains("validation"), "validation messages:\n{stderr}");
+        out
     }
 }
 
