@@ -34,7 +34,16 @@ impl Xvfb {
         let mut line = String::new();
         BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
         let number: u32 = line.trim().parse().unwrap_or_else(|_| panic!("Xvfb did not report a display: {line:?}"));
-        Xvfb { child, display: format!(":{number}"), _turn: turn }
+        let x = Xvfb { child, display: format!(":{number}"), _turn: turn };
+        // The server answers a client before any test starts one: a viewer
+        // that found no server (seen once in 14 runs) fails the test for
+        // the wrong reason.
+        let started = std::time::Instant::now();
+        while !Command::new("xdotool").arg("getdisplaygeometry").env("DISPLAY", &x.display).output().is_ok_and(|o| o.status.success()) {
+            assert!(started.elapsed().as_secs() < 10, "Xvfb on {} accepts no client after 10 s", x.display);
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        x
     }
 }
 
@@ -45,16 +54,20 @@ impl Drop for Xvfb {
     }
 }
 
-fn view(x: &Xvfb, args: &[&str]) -> Output {
-    Command::new(bin())
-        .arg("view")
+/// `isomarch view ARGS` with validation, in `x`'s display.
+fn view_command(x: &Xvfb, args: &[&str]) -> Command {
+    let mut c = Command::new(bin());
+    c.arg("view")
         .args(args)
         .args(["--validation", "--timeout", "300"])
         .current_dir(repo_root())
         .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
-        .output()
-        .unwrap()
+        .env_remove("WAYLAND_DISPLAY");
+    c
+}
+
+fn view(x: &Xvfb, args: &[&str]) -> Output {
+    view_command(x, args).output().unwrap()
 }
 
 /// Distinct colours in a PNG of `size`.
@@ -227,13 +240,7 @@ struct Session {
 impl Session {
     fn open(args: &[&str]) -> Session {
         let x = Xvfb::start();
-        let mut child = Command::new(bin())
-            .arg("view")
-            .args(args)
-            .args(["--validation", "--timeout", "300"])
-            .current_dir(repo_root())
-            .env("DISPLAY", &x.display)
-            .env_remove("WAYLAND_DISPLAY")
+        let mut child = view_command(&x, args)
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
