@@ -52,6 +52,8 @@ gpu_structs! {
     /// `a.w` offset (the plane is `n·p = offset`).
     /// `b`: x support radius R (compact) or scale r (Gaussian), y 1/R² or
     /// s/r², z weight, w the distance where |dk/dd| peaks (R/√5 or r/√(2s)).
+    /// HRBF terms: `a.xyz` the control point, `a.w` α, `b.xyz` β. Affine
+    /// functions: `a.xyz` the gradient, `a.w` the offset.
     /// `c`: x the peak of |dk/dd| (the kernel's Lipschitz constant), yzw reserved.
     /// `ids`: x kind (`PRIM_*`), y group index (primitives are sorted by group),
     /// z the primitive's own colour (linear RGB, 8 bits a channel, red lowest)
@@ -124,6 +126,10 @@ gpu_structs! {
 pub const PRIM_COMPACT_POINT: u32 = 0;
 pub const PRIM_GAUSSIAN_POINT: u32 = 1;
 pub const PRIM_COMPACT_PLANE: u32 = 2;
+/// One term of a Hermite RBF (src/field/hrbf.rs).
+pub const PRIM_HRBF: u32 = 3;
+/// An affine function (an HRBF's polynomial term).
+pub const PRIM_AFFINE: u32 = 4;
 
 /// Result flags (`GpuResult::counts.w`).
 pub const FLAG_HIT: u32 = 1;
@@ -187,6 +193,8 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
     (9, "SC_SECONDARY"),
     (10, "SC_INDEX"),
     (11, "SC_REFINE"),
+    (12, "SC_HAS_HRBF"),
+    (13, "SC_HAS_AFFINE"),
 ];
 
 /// The spatial index (shaders/include/grid.glsl, index.comp): a primitive
@@ -222,6 +230,8 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("PRIM_COMPACT_POINT", PRIM_COMPACT_POINT),
     ("PRIM_GAUSSIAN_POINT", PRIM_GAUSSIAN_POINT),
     ("PRIM_COMPACT_PLANE", PRIM_COMPACT_PLANE),
+    ("PRIM_HRBF", PRIM_HRBF),
+    ("PRIM_AFFINE", PRIM_AFFINE),
     ("FLAG_HIT", FLAG_HIT),
     ("FLAG_OUT_OF_STEPS", FLAG_OUT_OF_STEPS),
     ("FLAG_DONE", FLAG_DONE),

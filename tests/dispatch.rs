@@ -54,9 +54,14 @@ fn gpu_values_gradients_and_segment_slopes_equal_the_f64_mirror() {
     let ctx = gpu();
     // Random blobs (sum, max) and a plane slab with blobs (the plane's
     // branch of the segment bound).
-    for (seed, s) in [(1u64, random_scene(1, false, Method::Segment)), (2, random_scene(2, true, Method::Segment)), (3, plane_scene(false))] {
+    for (seed, s) in [
+        (1u64, random_scene(1, false, Method::Segment)),
+        (2, random_scene(2, true, Method::Segment)),
+        (3, plane_scene(false)),
+        (4, random_hrbf_scene(4, true, Method::Segment)),
+    ] {
         let field = Field::new(&s);
-        let scale = field.groups.iter().map(|g| g.iter().map(|p| p.kernel().weight).sum::<f64>()).fold(0.0, f64::max);
+        let scale = field.groups.iter().map(|g| g.iter().map(|p| p.magnitude()).sum::<f64>()).fold(0.0, f64::max);
         let lipschitz = field.lipschitz();
         let queries: Vec<GpuRay> = protocol_rays(&s.bounds, 400, seed)
             .into_iter()

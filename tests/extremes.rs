@@ -108,8 +108,8 @@ fn aimed_rays(s: &Scene, count: usize, seed: u64, aim: f64) -> Vec<GpuRay> {
     let centres: Vec<DVec3> = s
         .primitives()
         .filter_map(|p| match *p {
-            Primitive::Point { center, .. } => Some(center),
-            Primitive::Plane { .. } => None,
+            Primitive::Point { center, .. } | Primitive::Hrbf { center, .. } => Some(center),
+            Primitive::Plane { .. } | Primitive::Affine { .. } => None,
         })
         .collect();
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed ^ 0xa1);

@@ -73,7 +73,7 @@ fn generated_scenes_load_with_every_support_in_bounds() {
             let matches = match p {
                 Primitive::Point { kernel: Kernel::Compact { radius, .. }, .. } => kernel == "Compact" && *radius == 1.0,
                 Primitive::Point { kernel: Kernel::Gaussian { r, s, .. }, .. } => kernel == "Gaussian" && *r == 0.5 && *s == 2.0,
-                Primitive::Plane { .. } => false,
+                _ => false,
             };
             assert!(matches, "{kernel} scene holds {p:?}");
         }

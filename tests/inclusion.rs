@@ -74,7 +74,8 @@ fn meets_support(scene: &Scene, q: &GpuRay) -> bool {
             let tc = (*center - r.o).dot(r.d).clamp(r.t0, r.t1);
             (r.o + tc * r.d - *center).length() < kernel.cutoff(scene.iso)
         }
-        Primitive::Plane { .. } => true,
+        // Planes, HRBF terms and affine functions reach everywhere.
+        _ => true,
     })
 }
 
@@ -113,7 +114,7 @@ fn check(field: &Field, method: Method, queries: &[GpuRay], bounds: &[Bound], sc
 }
 
 fn scale(scene: &Scene) -> f64 {
-    Field::new(scene).groups.iter().map(|g| g.iter().map(|p| p.kernel().weight).sum::<f64>()).fold(0.0, f64::max)
+    Field::new(scene).groups.iter().map(|g| g.iter().map(|p| p.magnitude()).sum::<f64>()).fold(0.0, f64::max)
 }
 
 fn gpu_bounds(r: &mut Renderer, method: Method, options: MarchOptions, queries: &[GpuRay]) -> Vec<Bound> {
@@ -147,6 +148,9 @@ fn all_scenes() -> Vec<(String, Scene)> {
         .flat_map(|seed| [false, true].map(|max| (format!("seed {seed} max={max}"), random_scene(seed, max, Method::QuadraticTaylor))))
         .collect();
     v.push(("plane".into(), plane_scene(false)));
+    for (seed, max) in [(0u64, false), (1, true)] {
+        v.push((format!("hrbf {seed} max={max}"), random_hrbf_scene(seed, max, Method::QuadraticTaylor)));
+    }
     v
 }
 

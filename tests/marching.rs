@@ -150,9 +150,12 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
     let rays_per_scene = 1024;
     let mut report = Vec::new();
     let mut steps: std::collections::BTreeMap<String, (Method, StepAgreement)> = Default::default();
-    for seed in 0..6u64 {
-        for max_of_groups in [false, true] {
-            let s = random_scene(seed, max_of_groups, Method::Segment);
+    // Blobs (seeds 0 to 5), and HRBFs blended with blobs (seeds 1000 on).
+    let scenes = (0..6u64)
+        .flat_map(|seed| [false, true].map(|max| (seed, max, random_scene(seed, max, Method::Segment))))
+        .chain((1000..1002u64).flat_map(|seed| [false, true].map(|max| (seed, max, random_hrbf_scene(seed, max, Method::Segment)))));
+    for (seed, max_of_groups, s) in scenes {
+        {
             let rays = protocol_rays(&s.bounds, rays_per_scene, seed);
             let reference = reference_hits(&s, &rays, false);
             let ref_hits = reference.iter().filter(|r| r.is_some()).count();
@@ -253,9 +256,11 @@ fn transparent_marching_finds_every_crossing_on_gpu_and_f64() {
     let ctx = gpu();
     let mut report = Vec::new();
     let mut checked = 0usize;
-    for seed in 0..3u64 {
-        for max_of_groups in [false, true] {
-            let mut s = random_scene(100 + seed, max_of_groups, Method::Segment);
+    let scenes = (0..3u64)
+        .flat_map(|seed| [false, true].map(|max| (seed, max, random_scene(100 + seed, max, Method::Segment))))
+        .chain([(1100, false, random_hrbf_scene(1100, false, Method::Segment)), (1101, true, random_hrbf_scene(1101, true, Method::Segment))]);
+    for (seed, max_of_groups, mut s) in scenes {
+        {
             s.transparency = Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::splat(0.1), ior: None, max_depth: 6, reflectivity: 1.0 });
             let rays = protocol_rays(&s.bounds, 512, seed);
             let reference = reference_crossings(&s, &rays, false, false);

@@ -33,12 +33,13 @@ ivec3 cell_of(vec3 x) {
     return clamp(ivec3(c), ivec3(0), ivec3(globals.grid_dims.xyz) - 1);
 }
 
-// Does primitive pr go to its group's everywhere list? Planes do, and any
+// Does primitive pr go to its group's everywhere list? Every kind but the
+// points does (planes, HRBF terms, affine functions), and any
 // primitive whose padded box may cover more than MAX_CELLS_PER_PRIMITIVE
 // cells wherever it is (a bound independent of its position, so that the
 // host can count these lists without reading the primitives back).
 bool in_everywhere_list(GpuPrimitive pr) {
-    if (pr.ids.x == PRIM_COMPACT_PLANE) return true;
+    if (pr.ids.x != PRIM_COMPACT_POINT && pr.ids.x != PRIM_GAUSSIAN_POINT) return true;
     float span = ceil(2.0 * (pr.c.y + CELL_PAD * globals.grid.w) / globals.grid.w) + 1.0;
     return span * span * span > float(MAX_CELLS_PER_PRIMITIVE);
 }

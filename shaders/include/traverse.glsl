@@ -18,6 +18,7 @@
 #include "field.glsl"
 #include "inclusion.glsl"
 #include "grid.glsl"
+#include "hrbf.glsl"
 
 // What a fold evaluates.
 const uint EVAL_VALUE = 0u;       // f at a point
@@ -328,7 +329,7 @@ vec3 prim_color(GpuPrimitive pr) {
 
 // --- The interface of a kind: six functions named KIND_value,
 // KIND_lipschitz, KIND_taylor, KIND_linear, KIND_quad and KIND_raa (in
-// field.glsl and inclusion.glsl), from which KIND_TERMS makes its terms
+// field.glsl, inclusion.glsl and hrbf.glsl), from which KIND_TERMS makes its terms
 // for every evaluation. A kind missing one of them does not compile.
 #define KIND_TERMS(KIND)                                                                           \
     Terms KIND##_terms(uint what, GpuPrimitive pr, Query q, inout float len) {                     \
@@ -355,6 +356,8 @@ vec3 prim_color(GpuPrimitive pr) {
 KIND_TERMS(compact_point)
 KIND_TERMS(gaussian_point)
 KIND_TERMS(compact_plane)
+KIND_TERMS(hrbf)
+KIND_TERMS(affine)
 
 // The one dispatch on the primitive's kind: exhaustive, a kind the shader
 // does not know poisons the result. A kind the scene does not use is
@@ -364,6 +367,8 @@ Terms prim_terms(uint what, GpuPrimitive pr, Query q, inout float len) {
     case PRIM_COMPACT_POINT: return SC_HAS_COMPACT_POINT != 0u ? compact_point_terms(what, pr, q, len) : no_terms();
     case PRIM_GAUSSIAN_POINT: return SC_HAS_GAUSSIAN_POINT != 0u ? gaussian_point_terms(what, pr, q, len) : no_terms();
     case PRIM_COMPACT_PLANE: return SC_HAS_COMPACT_PLANE != 0u ? compact_plane_terms(what, pr, q, len) : no_terms();
+    case PRIM_HRBF: return SC_HAS_HRBF != 0u ? hrbf_terms(what, pr, q, len) : no_terms();
+    case PRIM_AFFINE: return SC_HAS_AFFINE != 0u ? affine_terms(what, pr, q, len) : no_terms();
     default: return poison_terms();
     }
 }

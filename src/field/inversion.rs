@@ -64,8 +64,7 @@ impl Inversion {
         let prims = &field.groups[0];
         let mut out: Option<Inversion> = None;
         for p in prims {
-            let k = p.kernel();
-            let (crate::field::PrimEval::Point(_), true) = (p, k.gaussian) else {
+            let (crate::field::PrimEval::Point(crate::field::kinds::PointPrim { kernel: k, .. }), true) = (p, p.kernel().is_some_and(|k| k.gaussian)) else {
                 return Err("field-inversion marches Gaussian point blobs only (a molecule); this scene has other primitives".into());
             };
             let s = k.inv * k.scale * k.scale;

@@ -7,8 +7,8 @@
 //! A kind maps the ray onto its kernel's argument (a point: the distance to
 //! its centre, `x² + h²` along the ray; a plane: the signed distance
 //! `s0 + σ t`) and hands the kernel algebra of `bounds.rs`, `quad.rs` and
-//! `raa.rs` what it needs. A kernel that is not radial (HRBF terms) is a
-//! new implementation of [`PrimitiveKind`] and a new [`PrimEval`] variant;
+//! `raa.rs` what it needs. HRBF terms and affine functions, which are not
+//! kernels, are two more implementations of [`PrimitiveKind`] in `hrbf.rs`;
 //! the fold over primitives (`fold.rs`) does not change.
 
 use glam::DVec3;
@@ -18,7 +18,8 @@ use super::bounds::{Lin, Order, Taylor, compact_derivs, compact_lin, kernel_tayl
 use super::quad::{QuadOptions, compact_quad, gaussian_quad};
 use super::raa::{Affine, compact_raa, exp_neg};
 use super::{KernelEval, point_on_ray};
-use crate::scene::{Kernel, Primitive};
+use super::hrbf::{AffinePrim, HrbfPrim, farthest};
+use crate::scene::{Aabb, Kernel, Primitive};
 
 /// Every evaluation of one primitive along a ray `o + t u`, `|u| = 1`.
 pub trait PrimitiveKind {
@@ -236,15 +237,21 @@ impl PrimitiveKind for PlanePrim {
 pub enum PrimEval {
     Point(PointPrim),
     Plane(PlanePrim),
+    Hrbf(HrbfPrim),
+    Affine(AffinePrim),
 }
 
 impl PrimEval {
-    pub fn new(p: &Primitive) -> PrimEval {
+    /// `bounds`: the box where rays march (the global Lipschitz bound of
+    /// kinds whose slope grows without bound needs it).
+    pub fn new(p: &Primitive, bounds: &Aabb) -> PrimEval {
         match *p {
             Primitive::Point { center, kernel } => PrimEval::Point(PointPrim { center, kernel: KernelEval::new(kernel) }),
             Primitive::Plane { normal, offset, radius, weight } => {
                 PrimEval::Plane(PlanePrim { normal, offset, kernel: KernelEval::new(Kernel::Compact { radius, weight }) })
             }
+            Primitive::Hrbf { center, alpha, beta, .. } => PrimEval::Hrbf(HrbfPrim { center, alpha, beta, reach: farthest(bounds, center) }),
+            Primitive::Affine { gradient, offset } => PrimEval::Affine(AffinePrim { gradient, offset, reach: farthest(bounds, glam::DVec3::ZERO) }),
         }
     }
 
@@ -253,13 +260,30 @@ impl PrimEval {
         match self {
             PrimEval::Point(p) => p,
             PrimEval::Plane(p) => p,
+            PrimEval::Hrbf(p) => p,
+            PrimEval::Affine(p) => p,
         }
     }
 
-    pub fn kernel(&self) -> &KernelEval {
+    /// The kernel of a point or plane primitive (HRBF terms and affine
+    /// functions have none).
+    pub fn kernel(&self) -> Option<&KernelEval> {
         match self {
-            PrimEval::Point(p) => &p.kernel,
-            PrimEval::Plane(p) => &p.kernel,
+            PrimEval::Point(p) => Some(&p.kernel),
+            PrimEval::Plane(p) => Some(&p.kernel),
+            PrimEval::Hrbf(_) | PrimEval::Affine(_) => None,
+        }
+    }
+
+    /// The size of the values this primitive takes in the box where rays
+    /// march: a kernel's weight, an HRBF term's or affine function's
+    /// largest magnitude there. The scale for relative tolerances.
+    pub fn magnitude(&self) -> f64 {
+        match self {
+            PrimEval::Point(p) => p.kernel.weight,
+            PrimEval::Plane(p) => p.kernel.weight,
+            PrimEval::Hrbf(p) => p.alpha.abs() * p.reach.powi(3) + 3.0 * p.beta.length() * p.reach * p.reach,
+            PrimEval::Affine(p) => p.gradient.length() * p.reach + p.offset.abs(),
         }
     }
 }

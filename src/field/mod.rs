@@ -5,6 +5,7 @@ pub mod bound;
 pub mod bounds;
 pub mod fold;
 pub mod grid;
+pub mod hrbf;
 pub mod inversion;
 pub mod kinds;
 pub mod march;
@@ -121,7 +122,7 @@ pub struct Field {
 
 impl Field {
     pub fn new(scene: &Scene) -> Field {
-        let groups: Vec<Vec<PrimEval>> = scene.groups.iter().map(|g| g.iter().map(PrimEval::new).collect()).collect();
+        let groups: Vec<Vec<PrimEval>> = scene.groups.iter().map(|g| g.iter().map(|p| PrimEval::new(p, &scene.bounds)).collect()).collect();
         let order: Vec<(u32, u32)> =
             groups.iter().enumerate().flat_map(|(g, prims)| (0..prims.len()).map(move |i| (g as u32, i as u32))).collect();
         let grid = Grid::new(&groups.iter().flatten().collect::<Vec<_>>());

@@ -48,7 +48,8 @@ pub const GAUSSIAN_CLIP_FRACTION: f64 = 1e-3;
 /// of them then adds less than `GAUSSIAN_CLIP_FRACTION · iso / n` beyond
 /// its ρ, so a group's sum loses less than `GAUSSIAN_CLIP_FRACTION · iso`
 /// at any point, however dense the scene (the bound needs no density). The
-/// rendered field is the clipped one; `None` for planes (not in the grid).
+/// rendered field is the clipped one; `None` for planes, HRBF terms and
+/// affine functions (not in the grid: their support is everywhere).
 pub fn index_radius(p: &Primitive, iso: f64, gaussians_in_group: usize) -> Option<f64> {
     match *p {
         Primitive::Point { kernel: Kernel::Compact { radius, .. }, .. } => Some(radius),
@@ -56,7 +57,7 @@ pub fn index_radius(p: &Primitive, iso: f64, gaussians_in_group: usize) -> Optio
             let ratio = weight * gaussians_in_group.max(1) as f64 / (GAUSSIAN_CLIP_FRACTION * iso);
             Some(if ratio <= 1.0 { 0.0 } else { r * (ratio.ln() / s).sqrt() })
         }
-        Primitive::Plane { .. } => None,
+        Primitive::Plane { .. } | Primitive::Hrbf { .. } | Primitive::Affine { .. } => None,
     }
 }
 

@@ -245,24 +245,29 @@ pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
     let mut out = Vec::with_capacity(scene.primitive_count());
     for (gi, group) in scene.groups.iter().enumerate() {
         for p in group {
-            let e = PrimEval::new(p);
-            let k = e.kernel();
+            let e = PrimEval::new(p, &scene.bounds);
+            let v4 = |v: glam::DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
             let (a, kind) = match *p {
                 Primitive::Point { center, kernel } => {
                     let kind = match kernel {
                         scene::Kernel::Compact { .. } => layout::PRIM_COMPACT_POINT,
                         scene::Kernel::Gaussian { .. } => layout::PRIM_GAUSSIAN_POINT,
                     };
-                    ([center.x as f32, center.y as f32, center.z as f32, 0.0], kind)
+                    (v4(center, 0.0), kind)
                 }
-                Primitive::Plane { normal, offset, .. } => {
-                    ([normal.x as f32, normal.y as f32, normal.z as f32, offset as f32], layout::PRIM_COMPACT_PLANE)
-                }
+                Primitive::Plane { normal, offset, .. } => (v4(normal, offset), layout::PRIM_COMPACT_PLANE),
+                Primitive::Hrbf { center, alpha, .. } => (v4(center, alpha), layout::PRIM_HRBF),
+                Primitive::Affine { gradient, offset } => (v4(gradient, offset), layout::PRIM_AFFINE),
+            };
+            let (b, c0) = match (e.kernel(), *p) {
+                (Some(k), _) => ([k.scale as f32, k.inv as f32, k.weight as f32, k.peak_distance as f32], k.peak_slope),
+                (None, Primitive::Hrbf { beta, .. }) => (v4(beta, 0.0), 0.0),
+                (None, _) => ([0.0; 4], 0.0),
             };
             out.push(GpuPrimitive {
                 a,
-                b: [k.scale as f32, k.inv as f32, k.weight as f32, k.peak_distance as f32],
-                c: [k.peak_slope as f32, radii.next().flatten().unwrap_or(0.0) as f32, 0.0, 0.0],
+                b,
+                c: [c0 as f32, radii.next().flatten().unwrap_or(0.0) as f32, 0.0, 0.0],
                 ids: [kind, gi as u32, colors.next().unwrap_or(0), 0],
             });
         }
@@ -322,6 +327,8 @@ fn specialization(scene: &Scene, method: Method, key: &PipelineKey, indexed: boo
         ("SC_HAS_COMPACT_POINT", has(|p| matches!(p, Primitive::Point { kernel: scene::Kernel::Compact { .. }, .. }))),
         ("SC_HAS_GAUSSIAN_POINT", has(|p| matches!(p, Primitive::Point { kernel: scene::Kernel::Gaussian { .. }, .. }))),
         ("SC_HAS_COMPACT_PLANE", has(|p| matches!(p, Primitive::Plane { .. }))),
+        ("SC_HAS_HRBF", has(|p| matches!(p, Primitive::Hrbf { .. }))),
+        ("SC_HAS_AFFINE", has(|p| matches!(p, Primitive::Affine { .. }))),
         ("SC_MULTI_GROUP", u32::from(key.generic || scene.groups.len() > 1)),
         ("SC_SHADE", u32::from(key.shade)),
         ("SC_CULL", u32::from(key.cull && !indexed && scene.primitive_count() <= CULL_MAX_PRIMITIVES)),

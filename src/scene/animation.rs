@@ -150,6 +150,11 @@ impl Scene {
             match p {
                 Primitive::Point { center, .. } => *center -= origin,
                 Primitive::Plane { normal, offset, .. } => *offset -= normal.dot(origin),
+                Primitive::Hrbf { center, domain, .. } => {
+                    *center -= origin;
+                    *domain = Aabb { min: domain.min - origin, max: domain.max - origin };
+                }
+                Primitive::Affine { gradient, offset } => *offset += gradient.dot(origin),
             }
         }
         s.camera.eye -= origin;
@@ -170,14 +175,15 @@ impl Scene {
     }
 
     /// The union of the point primitives' supports (Gaussians: where they
-    /// exceed `GAUSSIAN_BOUNDS_FRACTION · iso`).
+    /// exceed `GAUSSIAN_BOUNDS_FRACTION · iso`) and the HRBFs' boxes.
     pub fn support_bounds(&self) -> Aabb {
         self.primitives().fold(Aabb::empty(), |b, p| match *p {
             Primitive::Point { center, kernel } => {
                 let reach = DVec3::splat(kernel.cutoff(self.iso));
                 b.union(Aabb { min: center - reach, max: center + reach })
             }
-            Primitive::Plane { .. } => b,
+            Primitive::Hrbf { domain, .. } => b.union(domain),
+            Primitive::Plane { .. } | Primitive::Affine { .. } => b,
         })
     }
 }

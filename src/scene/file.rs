@@ -229,6 +229,25 @@ pub enum PrimitiveFile {
         #[serde(default)]
         weight: Option<f64>,
     },
+    /// A Hermite RBF surface (Eq. 9, φ(r) = r³) through `points`, each
+    /// `(position, outward normal)`; the normals need not be unit. Its
+    /// weights are fitted when the scene loads. Inside is positive, and the
+    /// iso value is added so that alone its surface passes through the
+    /// points; in a group with blobs they blend by sum.
+    Hrbf {
+        points: Vec<([f64; 3], [f64; 3])>,
+        /// The degree-1 polynomial term of the interpolant.
+        #[serde(default = "default_polynomial")]
+        polynomial: bool,
+        /// Rays are marched in the control points' box grown by this much
+        /// on every side (default: a quarter of its largest side).
+        #[serde(default)]
+        margin: Option<f64>,
+    },
+}
+
+fn default_polynomial() -> bool {
+    true
 }
 
 /// A path of offsets added to a point's centre over scene time (seconds).

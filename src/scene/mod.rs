@@ -2,6 +2,7 @@
 //! renderer and the f64 reference both read.
 
 pub mod file;
+pub mod hrbf;
 
 use std::path::Path;
 
@@ -90,6 +91,14 @@ pub enum Primitive {
     Point { center: DVec3, kernel: Kernel },
     /// Compact kernel of the distance to the plane `normal · p = offset`.
     Plane { normal: DVec3, offset: f64, radius: f64, weight: f64 },
+    /// One term of a Hermite RBF (Eq. 9, φ(r) = r³):
+    /// `alpha |p - center|³ + 3 |p - center| beta · (p - center)`.
+    /// `domain`: its HRBF's box (the control points' box with the margin),
+    /// where rays are marched.
+    Hrbf { center: DVec3, alpha: f64, beta: DVec3, domain: Aabb },
+    /// The affine function `gradient · p + offset`: an HRBF's polynomial
+    /// term, with the iso value added so that its surface is the HRBF's.
+    Affine { gradient: DVec3, offset: f64 },
 }
 
 /// Axis-aligned box.
@@ -204,6 +213,9 @@ impl Scene {
                 Primitive::Point { kernel: Kernel::Compact { radius, .. }, .. } => radius,
                 Primitive::Point { kernel: Kernel::Gaussian { r, .. }, .. } => r,
                 Primitive::Plane { radius, .. } => radius,
+                // An HRBF's detail is taken to be a tenth of its box.
+                Primitive::Hrbf { domain, .. } => 0.1 * domain.diagonal(),
+                Primitive::Affine { .. } => f64::INFINITY,
             })
             .fold(f64::INFINITY, f64::min)
     }
@@ -270,6 +282,43 @@ impl Checker<'_> {
             out.push((t, self.vec3(&format!("{field}[{i}].1"), *p)?));
         }
         Ok(out)
+    }
+    /// An HRBF: its fitted terms (one per control point, then the affine
+    /// term with the iso value added) and the box rays are marched in.
+    fn hrbf(
+        &self,
+        at: &str,
+        points: &[([f64; 3], [f64; 3])],
+        polynomial: bool,
+        margin: Option<f64>,
+        iso: f64,
+    ) -> Result<(Vec<Primitive>, Aabb), SceneError> {
+        let field = format!("{at}.points");
+        if points.is_empty() {
+            return Err(self.err(&field, "needs at least one (position, normal) control point"));
+        }
+        let mut positions = Vec::with_capacity(points.len());
+        let mut normals = Vec::with_capacity(points.len());
+        for (i, (p, n)) in points.iter().enumerate() {
+            positions.push(self.vec3(&format!("{field}[{i}].0"), *p)?);
+            normals.push(self.unit(&format!("{field}[{i}].1"), *n)?);
+        }
+        let fit = hrbf::fit(&positions, &normals, polynomial).map_err(|e| self.err(&field, e.to_string()))?;
+        let mut domain = positions.iter().fold(Aabb::empty(), |b, &p| b.union(Aabb { min: p, max: p }));
+        let side = (domain.max - domain.min).max_element();
+        let margin = match margin {
+            Some(m) => self.positive(&format!("{at}.margin"), m)?,
+            None if side > 0.0 => hrbf::DEFAULT_MARGIN * side,
+            None => return Err(self.err(format!("{at}.margin"), "the control points are all at one place: give the margin of the box to march")),
+        };
+        domain = Aabb { min: domain.min - DVec3::splat(margin), max: domain.max + DVec3::splat(margin) };
+        let mut terms: Vec<Primitive> = positions
+            .iter()
+            .zip(fit.alpha.iter().zip(&fit.beta))
+            .map(|(&center, (&alpha, &beta))| Primitive::Hrbf { center, alpha, beta, domain })
+            .collect();
+        terms.push(Primitive::Affine { gradient: fit.gradient, offset: fit.offset + iso });
+        Ok((terms, domain))
     }
     fn motion(&self, field: &str, m: &file::MotionFile) -> Result<Motion, SceneError> {
         Ok(match m {
@@ -419,7 +468,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
                 file::PrimitiveFile::Point { center, kernel, motion, radius_scale, color } => {
                     let center = c.vec3(&format!("{at}.center"), *center)?;
                     if let Some(rgb) = color {
-                        colors.get_or_insert_with(|| vec![None; prims_before + pi]);
+                        colors.get_or_insert_with(|| vec![None; prims_before + prims.len()]);
                         let rgb = c.color(&format!("{at}.color"), *rgb)?;
                         if let Some(v) = colors.as_mut() {
                             v.push(Some(rgb));
@@ -428,14 +477,14 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
                         v.push(None);
                     }
                     if let Some(m) = motion {
-                        animation.primitives.push(((gi, pi), c.motion(&format!("{at}.motion"), m)?));
+                        animation.primitives.push(((gi, prims.len()), c.motion(&format!("{at}.motion"), m)?));
                     }
                     // The smallest size the point takes, for the f32 check.
                     let mut shrink = 1.0;
                     if let Some(m) = radius_scale {
                         let scale = c.scale(&format!("{at}.radius_scale"), m)?;
                         shrink = scale.min_factor().min(1.0);
-                        animation.radii.push(((gi, pi), scale));
+                        animation.radii.push(((gi, prims.len()), scale));
                     }
                     let kernel = match kernel {
                         file::KernelFile::Compact { radius, weight } => {
@@ -463,6 +512,15 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
                     let reach = DVec3::splat(kernel.cutoff(iso));
                     support = support.union(Aabb { min: center - reach, max: center + reach });
                     Primitive::Point { center, kernel }
+                }
+                file::PrimitiveFile::Hrbf { points, polynomial, margin } => {
+                    let (terms, domain) = c.hrbf(&at, points, *polynomial, *margin, iso)?;
+                    if let Some(v) = colors.as_mut() {
+                        v.extend(std::iter::repeat_n(None, terms.len()));
+                    }
+                    support = support.union(domain);
+                    prims.extend(terms);
+                    continue;
                 }
                 file::PrimitiveFile::Plane { normal, offset, radius, weight } => {
                     has_plane = true;

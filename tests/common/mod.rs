@@ -68,13 +68,6 @@ pub fn gaussian(center: DVec3, r: f64, s: f64, iso: f64) -> Primitive {
 /// A scene around `groups`, bounds from the supports (as the loader does),
 /// camera looking down -z at the origin.
 pub fn scene(groups: Vec<Vec<Primitive>>, iso: f64, method: Method, min_step: f64) -> Scene {
-    let mut bounds = Aabb::empty();
-    for p in groups.iter().flatten() {
-        if let Primitive::Point { center, kernel } = p {
-            let reach = DVec3::splat(kernel.cutoff(iso));
-            bounds = bounds.union(Aabb { min: *center - reach, max: *center + reach });
-        }
-    }
     let mut s = Scene {
         source: "test scene".into(),
         camera: Camera {
@@ -93,12 +86,13 @@ pub fn scene(groups: Vec<Vec<Primitive>>, iso: f64, method: Method, min_step: f6
         transparency: None,
         marching: Marching { method, min_step, max_steps: 100_000, growth: None, quad: Default::default(), refine: Default::default() },
         groups,
-        bounds,
+        bounds: Aabb::empty(),
         bounds_explicit: false,
         animation: Default::default(),
         colors: None,
     };
     s.marching.min_step = min_step;
+    s.bounds = s.support_bounds();
     s
 }
 
@@ -138,5 +132,50 @@ pub fn plane_scene(max_of_groups: bool) -> Scene {
     let mut s = scene(groups, 0.5, Method::QuadraticTaylor, 1e-3);
     s.bounds = Aabb { min: DVec3::new(-4.0, -1.5, -4.0), max: DVec3::new(4.0, 4.0, 4.0) };
     s.bounds_explicit = true;
+    s
+}
+
+/// `n` control points `(position, outward normal)` on the ellipsoid of
+/// semi-axes `axes` about `center`, at directions uniform on the sphere.
+pub fn ellipsoid_points(rng: &mut Pcg64Mcg, n: usize, center: DVec3, axes: DVec3) -> Vec<(DVec3, DVec3)> {
+    (0..n)
+        .map(|_| {
+            let z: f64 = rng.random_range(-1.0..1.0);
+            let phi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+            let d = DVec3::new((1.0 - z * z).sqrt() * phi.cos(), (1.0 - z * z).sqrt() * phi.sin(), z);
+            let p = d / (d / axes).length();
+            (center + p, (p / (axes * axes)).normalize())
+        })
+        .collect()
+}
+
+/// RON for an HRBF through `points`.
+pub fn hrbf_ron(points: &[(DVec3, DVec3)]) -> String {
+    let v = |p: DVec3| format!("({}, {}, {})", p.x, p.y, p.z);
+    let list: Vec<String> = points.iter().map(|&(p, n)| format!("({}, {})", v(p), v(n))).collect();
+    format!("Hrbf(points: [{}])", list.join(", "))
+}
+
+/// A seeded random HRBF scene: 6 to 12 points on a random ellipsoid, in a
+/// group with a compact blob near its surface (they blend by sum); with
+/// `max_of_groups`, a second group of two blobs beside it (max). Built
+/// through the scene file, so the fit and the box are the loader's.
+pub fn random_hrbf_scene(seed: u64, max_of_groups: bool, method: Method) -> Scene {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let axes = DVec3::new(rng.random_range(1.0..2.0), rng.random_range(1.0..2.0), rng.random_range(1.0..2.0));
+    let n = rng.random_range(6..=12);
+    let points = ellipsoid_points(&mut rng, n, DVec3::ZERO, axes);
+    let blob = |c: DVec3, r: f64| format!("Point(center: ({}, {}, {}), kernel: Compact(radius: {r}))", c.x, c.y, c.z);
+    let near = points[0].0 + 0.3 * points[0].1;
+    let mut groups = format!("(primitives: [{}, {}])", hrbf_ron(&points), blob(near, 1.0));
+    if max_of_groups {
+        groups += &format!(", (primitives: [{}, {}])", blob(DVec3::new(axes.x + 0.5, 0.3, 0.0), 1.5), blob(DVec3::new(axes.x + 1.2, -0.4, 0.5), 1.2));
+    }
+    let text = format!(
+        "Scene(camera: (eye: (0.0, 0.0, 10.0), target: (0.0, 0.0, 0.0), resolution: (64, 64)), iso: 0.5, \
+         marching: (method: \"{method}\", max_steps: 100000), groups: [{groups}])"
+    );
+    let mut s = Scene::parse(&text, &format!("random HRBF scene {seed}")).unwrap();
+    s.marching.min_step = 1e-4 * s.min_radius();
     s
 }
