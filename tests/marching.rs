@@ -118,11 +118,14 @@ impl StepAgreement {
 
     /// What is wrong, if anything: at least 96% of the rays with a
     /// crossing and of those without must agree, and no ray differ by more
-    /// than 15 steps. Measured over these 12 scenes: 97.9% at the least (the
-    /// bisection baselines' rays with a crossing, sphere tracing's without),
-    /// 99.7% or more for the other methods; 11 steps at the most
+    /// than 15 steps. Measured over the 12 blob scenes: 97.9% at the least
+    /// (the bisection baselines' rays with a crossing, sphere tracing's
+    /// without), 99.7% or more for the other methods; 11 steps at the most
     /// (`quadratic` with validity intervals for every Gaussian, whose f32
-    /// intervals end elsewhere than f64's).
+    /// intervals end elsewhere than f64's). The 4 HRBF scenes are tallied
+    /// apart, so that they cannot hide behind the blobs' rays: 95% at the
+    /// least (`quadratic`'s and both Taylor methods' rays without a
+    /// crossing), 2 steps at the most.
     fn check(&self, method: Method) -> Option<String> {
         let share = |a: usize, n: usize| a as f64 / n.max(1) as f64;
         let ok = self.worst <= 15 && share(self.misses_equal, self.misses) >= 0.96 && share(self.hits_allowed, self.hits) >= 0.96;
@@ -181,7 +184,7 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
                 (Method::Quadratic, every),
             ]);
             for (method, quad) in variants {
-                let method_label = format!("{method} ({quad:?})");
+                let method_label = format!("{method} ({quad:?}){}", if seed >= 1000 { " HRBF" } else { "" });
                 let options = MarchOptions { shade: false, quad, ..MarchOptions::for_scene(&s) };
                 // The f64 mirror of the marcher, on the first rays of the set.
                 let settings = isomarch::field::march::MarchSettings { growth: method.default_growth(), quad, ..settings };
