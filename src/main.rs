@@ -272,6 +272,11 @@ struct MarchArgs {
     /// figures measured before secant refinement).
     #[arg(long, value_enum)]
     refine: Option<isomarch::settings::Refinement>,
+    /// March the first crossing only, as if the scene had no
+    /// `transparency` section (so that the opaque-only bisection
+    /// baselines can run on a transparent or refractive scene).
+    #[arg(long)]
+    opaque: bool,
 }
 
 impl MarchArgs {
@@ -308,6 +313,9 @@ impl MarchArgs {
         }
         if let Some(r) = self.refine {
             scene.marching.refine = r;
+        }
+        if self.opaque {
+            scene.transparency = None;
         }
         Ok(())
     }

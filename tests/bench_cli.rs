@@ -148,3 +148,22 @@ fn bench_growth_reaches_the_marcher() {
     let err = String::from_utf8_lossy(&bad.stderr);
     assert!(!bad.status.success() && err.contains("--growth") && err.trim().lines().count() == 1, "{err}");
 }
+
+/// `--opaque` marches the first crossing only: the bisection baselines,
+/// which refuse a refractive scene, run on it, and a transparent method's
+/// steps drop to the opaque march's (it no longer follows every crossing).
+#[test]
+fn opaque_flag_marches_a_transparent_scene_for_the_first_crossing() {
+    let refused = std::process::Command::new(bin()).args(["bench", "scenes/hrbf17.ron", "--methods", "raa", "--rays", "64"]).current_dir(repo_root()).output().unwrap();
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success() && err.contains("opaque"), "{err}");
+    let (_, transparent) = bench("hrbf17.ron", &["--methods", "quadratic"], "transparent");
+    let (_, opaque) = bench("hrbf17.ron", &["--opaque", "--methods", "quadratic,raa"], "opaque");
+    let (t, o) = (num(rows(&transparent)[0], "steps_per_ray"), rows(&opaque).iter().map(|r| num(r, "steps_per_ray")).collect::<Vec<_>>());
+    assert!(o[0] < t, "opaque quadratic {} steps per ray, transparent {t}", o[0]);
+    assert!(o[0] < o[1], "opaque quadratic {} steps per ray, raa {}", o[0], o[1]);
+    let mut scene = Scene::load(&repo_root().join("scenes/hrbf17.ron")).unwrap();
+    scene.transparency = None;
+    let own = steps_per_ray(&scene, Method::Quadratic, None, isomarch::bench::DEFAULT_SEED);
+    assert!((o[0] - own).abs() <= 1e-9 * own, "bench --opaque says {} steps, marching the scene without transparency gives {own}", o[0]);
+}
