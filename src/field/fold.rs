@@ -15,7 +15,8 @@ use glam::DVec3;
 
 use super::bound::{Bound, max_bound};
 use super::bounds::{Lin, Order, Taylor};
-use super::kinds::{PrimEval, PrimitiveKind};
+use super::kinds::PrimitiveKind;
+use super::prim::PrimEval;
 use super::quad::{QuadOptions, QuadSettings};
 use super::raa::Affine;
 use super::{Field, Query};

@@ -8,7 +8,7 @@
 
 use glam::DVec3;
 
-use super::kinds::PrimEval;
+use super::prim::PrimEval;
 
 /// A query of the field: a point, or the ray `o + t u` on `[t0, t1]`.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -9,12 +9,14 @@ pub mod hrbf;
 pub mod inversion;
 pub mod kinds;
 pub mod march;
+pub mod prim;
 pub mod quad;
 pub mod raa;
 pub mod reference;
 
 pub use grid::Query;
-pub use kinds::{PrimEval, PrimitiveKind};
+pub use kinds::PrimitiveKind;
+pub use prim::PrimEval;
 
 use grid::Grid;
 
