@@ -204,6 +204,12 @@ const OPTIONAL_FIELDS: &[(&str, &str, &str, &str)] = &[
         "Compact(radius: 2.0), radius_scale: Keyframes([(0.0, 1.0), (2.0, 1.5)]))",
         "Compact(radius: 2.0), radius_scale: Some(Keyframes([(0.0, 1.0), (2.0, 1.5)])))",
     ),
+    (
+        "margin",
+        "Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))",
+        "Hrbf(points: [((1.0, 0.0, 0.0), (1.0, 0.0, 0.0)), ((-1.0, 0.0, 0.0), (-1.0, 0.0, 0.0)), ((0.0, 1.0, 0.0), (0.0, 1.0, 0.0))], margin: 0.5)",
+        "Hrbf(points: [((1.0, 0.0, 0.0), (1.0, 0.0, 0.0)), ((-1.0, 0.0, 0.0), (-1.0, 0.0, 0.0)), ((0.0, 1.0, 0.0), (0.0, 1.0, 0.0))], margin: Some(0.5))",
+    ),
 ];
 
 #[test]
