@@ -16,6 +16,9 @@ use common::{bin, repo_root, scratch};
 struct Xvfb {
     child: Child,
     display: String,
+    /// The server's stdout, kept open: a server that writes to a closed
+    /// pipe dies of SIGPIPE.
+    _stdout: BufReader<std::process::ChildStdout>,
     _turn: std::sync::MutexGuard<'static, ()>,
 }
 
@@ -25,16 +28,21 @@ impl Xvfb {
     fn start() -> Xvfb {
         let turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
         // -displayfd: the server picks a free display and writes its number.
+        // -noreset: by default the server resets when its last client
+        // leaves (the readiness check below is one), and a viewer that
+        // connected during the reset failed to open its display (about one
+        // run in four under load).
         let mut child = Command::new("Xvfb")
-            .args(["-displayfd", "1", "-screen", "0", "640x480x24", "-nolisten", "tcp"])
+            .args(["-displayfd", "1", "-screen", "0", "640x480x24", "-nolisten", "tcp", "-noreset"])
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
             .expect("the window tests need Xvfb (apt-get install xvfb; `bash scripts/test.sh` installs it)");
         let mut line = String::new();
-        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let mut stdout = BufReader::new(child.stdout.take().unwrap());
+        stdout.read_line(&mut line).unwrap();
         let number: u32 = line.trim().parse().unwrap_or_else(|_| panic!("Xvfb did not report a display: {line:?}"));
-        let x = Xvfb { child, display: format!(":{number}"), _turn: turn };
+        let x = Xvfb { child, display: format!(":{number}"), _stdout: stdout, _turn: turn };
         // The server answers a client before any test starts one: a viewer
         // that found no server (seen once in 14 runs) fails the test for
         // the wrong reason.
