@@ -429,9 +429,15 @@ fn assemble(points: &[DVec3], normals: &[DVec3], polynomial: bool) -> (DMatrix<f
     (a, b)
 }
 
-/// `σ_max / σ_min`, infinite for a singular matrix (never NaN).
+/// `σ_max / σ_min`, infinite for a singular matrix (never NaN), and for
+/// one whose SVD does not converge within a bounded number of iterations
+/// (`singular_values()` has no bound: on exactly repeated points, which
+/// `fit` refuses before this, it was seen not to return).
 fn condition_number(matrix: &DMatrix<f64>) -> f64 {
-    let sigma = matrix.clone().singular_values();
+    let Some(svd) = matrix.clone().try_svd_unordered(false, false, f64::EPSILON, 100 * matrix.nrows().max(1)) else {
+        return f64::INFINITY;
+    };
+    let sigma = svd.singular_values;
     let max = sigma.iter().copied().fold(0.0, f64::max);
     let min = sigma.iter().copied().fold(f64::INFINITY, f64::min);
     if sigma.iter().any(|s| !s.is_finite()) || min <= 0.0 {
