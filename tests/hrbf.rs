@@ -190,3 +190,57 @@ fn bad_control_points_are_one_line_errors_naming_the_problem() {
     assert!(!out.status.success() && stderr.contains("coincide") && stderr.trim().lines().count() == 1, "{stderr}");
     assert!(!out_png.exists());
 }
+
+/// Rays straight through control points (h = 0, where g'' jumps and ρ's
+/// curvature is unbounded), starting on one, and of zero length there:
+/// every method's bound is finite on the GPU and in f64, and the marches
+/// through and from control points end where the f64 reference puts the
+/// first crossing. (Whether a zero-length query on the surface, or one
+/// ending on it, holds a crossing depends on the sign of f = 0 rounded:
+/// f32 and f64 may disagree there, so only their bounds are checked.)
+#[test]
+fn rays_through_control_points_get_finite_bounds_and_correct_hits() {
+    use isomarch::field::fold::{field_bound, field_raa};
+    use isomarch::layout::{FLAG_HIT, GpuRay};
+    let ctx = gpu();
+    let mut s = Scene::load(&scene_path("hrbf8.ron")).unwrap();
+    s.marching.min_step = 1e-4 * s.min_radius();
+    s.marching.max_steps = 100_000;
+    let field = Field::new(&s);
+    let ray = |o: DVec3, d: DVec3, t0: f64, t1: f64| GpuRay {
+        o: [o.x as f32, o.y as f32, o.z as f32, t0 as f32],
+        d: [d.x as f32, d.y as f32, d.z as f32, t1 as f32],
+    };
+    // hrbf8 has control points at (±1.4, 0, 0), (0, ±0.95, 0), (0, 0, ±0.8).
+    let queries = vec![
+        ray(DVec3::new(-4.0, 0.0, 0.0), DVec3::X, 0.0, 8.0),   // through (-1.4, 0, 0) and (1.4, 0, 0)
+        ray(DVec3::new(0.0, -4.0, 0.0), DVec3::Y, 0.0, 8.0),   // through (0, ±0.95, 0)
+        ray(DVec3::new(0.0, 0.0, 4.0), -DVec3::Z, 3.2, 8.0),   // starting on (0, 0, 0.8)
+        ray(DVec3::new(0.0, 0.0, 4.0), -DVec3::Z, 3.2, 3.2),   // zero length on it
+        ray(DVec3::new(-4.0, 0.0, 0.0), DVec3::X, 2.0, 2.6),   // ending on (-1.4, 0, 0)
+    ];
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    let options = MarchOptions { shade: false, ..MarchOptions::for_scene(&s) };
+    for &method in Method::CONSERVATIVE {
+        let gpu = renderer.probe_bounds(method, options, &queries).unwrap();
+        for (g, q) in gpu.iter().zip(&queries) {
+            assert!(g.lo.iter().chain(&g.hi).all(|x| x.is_finite()), "{method}: GPU bound {g:?} on {q:?}");
+            let r = isomarch::render::rays::Ray::from_gpu(q);
+            let finite = match field_bound(&field, method, Default::default(), r.o, r.d, r.t0, r.t1) {
+                Some(b) => [b.v, b.a_lo, b.b_lo, b.a_hi, b.b_hi].iter().all(|x| x.is_finite()),
+                None => {
+                    let (lo, hi) = field_raa(&field, r.o, r.d, r.t0, r.t1);
+                    lo.is_finite() && hi.is_finite()
+                }
+            };
+            assert!(finite, "{method}: non-finite f64 bound on {q:?}");
+        }
+        let marched = &queries[..3];
+        let reference = reference_hits(&s, marched, false);
+        let out = renderer.march(method, options, marched, |_| {}).unwrap();
+        let tol = 2.0 * s.refine_tolerance() + 1e-5;
+        let acc = accuracy(&out.results, &reference, tol, tol);
+        assert_eq!((acc.misses, acc.false_hits), (0, 0), "{method}: hits {:?} against the reference {reference:?}", out.results.iter().map(|r| (r.counts[3] & FLAG_HIT != 0, r.hit[3])).collect::<Vec<_>>());
+    }
+    assert_no_validation(&ctx);
+}
