@@ -19,7 +19,6 @@ use super::quad::{QuadOptions, compact_quad, gaussian_quad};
 use super::raa::{Affine, compact_raa, exp_neg};
 use super::{KernelEval, point_on_ray};
 
-
 /// Every evaluation of one primitive along a ray `o + t u`, `|u| = 1`.
 pub trait PrimitiveKind {
     /// Value and gradient at `p`.
@@ -28,7 +27,9 @@ pub trait PrimitiveKind {
     /// Value at `p`.
     fn value(&self, p: DVec3) -> f64;
 
-    /// The global Lipschitz constant: the peak of `|dk/dd|` (Eq. 10).
+    /// The global Lipschitz constant (Eq. 10): the peak of `|dk/dd|` for a
+    /// kernel; for kinds whose slope grows without bound (HRBF terms), the
+    /// largest `|∇f|` in the box where rays march.
     fn lipschitz(&self) -> f64;
 
     /// Segment tracing's bound on `|df/dt|` over `t ∈ [ta, tb]`
