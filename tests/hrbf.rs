@@ -244,3 +244,42 @@ fn rays_through_control_points_get_finite_bounds_and_correct_hits() {
     }
     assert_no_validation(&ctx);
 }
+
+/// An HRBF in a max with a group of 80 blobs (more than the 64 that turn
+/// the spatial index on): it marches without the index, whose skipped
+/// groups would change the max (`Scene::max_needs_every_group`), as does the
+/// f64 mirror without its grid, and every method's hits match the reference.
+#[test]
+fn an_hrbf_beside_many_blobs_marches_flat_and_finds_the_references_hits() {
+    let ctx = gpu();
+    let points = control_points("hrbf8.ron");
+    let blobs: Vec<String> = (0..80)
+        .map(|i| {
+            let a = std::f64::consts::TAU * f64::from(i) / 80.0;
+            format!("Point(center: ({}, {}, 0.0), kernel: Compact(radius: 0.5))", 3.0 * a.cos(), 3.0 * a.sin())
+        })
+        .collect();
+    let text = format!(
+        "Scene(camera: (eye: (0.0, 2.0, 9.0), target: (0.0, 0.0, 0.0)), iso: 0.5, groups: [(primitives: [{}]), (primitives: [{}])])",
+        hrbf_ron(&points),
+        blobs.join(", ")
+    );
+    let mut s = Scene::parse(&text, "hrbf-and-ring.ron").unwrap();
+    assert!(s.primitive_count() > isomarch::render::CULL_MAX_PRIMITIVES && s.max_needs_every_group());
+    assert!(isomarch::render::index::GridSpec::for_scene(&s).is_none(), "the index is on");
+    assert!(Field::new(&s).grid_cell().is_none(), "the f64 mirror's grid is on");
+    s.marching.min_step = 1e-4 * s.min_radius();
+    s.marching.max_steps = 100_000;
+    let rays = protocol_rays(&s.bounds, 2048, 5);
+    let reference = reference_hits(&s, &rays, false);
+    let hits = reference.iter().filter(|r| r.is_some()).count();
+    assert!(hits > rays.len() / 10, "only {hits} reference hits");
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    let tol = 2.0 * s.refine_tolerance() + 1e-5;
+    for method in [Method::Segment, Method::QuadraticTaylor, Method::Quadratic, Method::Raa] {
+        let out = renderer.march(method, MarchOptions { shade: false, ..MarchOptions::for_scene(&s) }, &rays, |_| {}).unwrap();
+        let acc = accuracy(&out.results, &reference, tol, tol);
+        assert_eq!((acc.misses, acc.false_hits), (0, 0), "{method}: (missed or late, early or false) hits");
+    }
+    assert_no_validation(&ctx);
+}

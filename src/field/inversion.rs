@@ -64,7 +64,7 @@ impl Inversion {
         let prims = &field.groups[0];
         let mut out: Option<Inversion> = None;
         for p in prims {
-            let (crate::field::PrimEval::Point(crate::field::kinds::PointPrim { kernel: k, .. }), true) = (p, p.kernel().is_some_and(|k| k.gaussian)) else {
+            let Some(k) = p.kernel().filter(|k| k.gaussian && matches!(p, crate::field::PrimEval::Point(_))) else {
                 return Err("field-inversion marches Gaussian point blobs only (a molecule); this scene has other primitives".into());
             };
             let s = k.inv * k.scale * k.scale;

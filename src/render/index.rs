@@ -97,10 +97,11 @@ fn span(radius: f64, cell: f64) -> f64 {
 
 impl GridSpec {
     /// The grid for `scene` as posed, or `None` when it marches without
-    /// (few primitives).
+    /// (few primitives, many groups, or an HRBF in a max of groups:
+    /// [`Scene::max_needs_every_group`]).
     pub fn for_scene(scene: &Scene) -> Option<GridSpec> {
         let n = scene.primitive_count();
-        if n < INDEX_MIN_PRIMITIVES || scene.groups.len() > MAX_INDEX_GROUPS {
+        if n < INDEX_MIN_PRIMITIVES || scene.groups.len() > MAX_INDEX_GROUPS || scene.max_needs_every_group() {
             return None;
         }
         let radii = index_radii(scene);

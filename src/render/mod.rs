@@ -316,16 +316,6 @@ fn globals(scene: &Scene, growth: f64, quad: QuadSettings, grid: Option<&GridSpe
     }
 }
 
-/// Whether per-ray culling would change the field's values (not its
-/// surface): a culled group drops out of the max over groups, which is
-/// its exact value 0 only while the other groups are >= 0 there. An HRBF
-/// group goes far below 0, so in a scene of several groups culling would
-/// give `max(H) - iso` where the field is `max(H, 0) - iso`: the same sign
-/// (iso > 0), but other values and steps than the f64 mirror's.
-fn culling_moves_the_max(scene: &Scene) -> bool {
-    scene.groups.len() > 1 && scene.primitives().any(|p| matches!(p, Primitive::Hrbf { .. } | Primitive::Affine { .. }))
-}
-
 /// Specialization constants for `scene` marched by `method`.
 /// Per-ray support culling keeps one bit per primitive.
 pub const CULL_MAX_PRIMITIVES: usize = 64;
@@ -341,7 +331,7 @@ fn specialization(scene: &Scene, method: Method, key: &PipelineKey, indexed: boo
         ("SC_HAS_AFFINE", has(|p| matches!(p, Primitive::Affine { .. }))),
         ("SC_MULTI_GROUP", u32::from(key.generic || scene.groups.len() > 1)),
         ("SC_SHADE", u32::from(key.shade)),
-        ("SC_CULL", u32::from(key.cull && !indexed && scene.primitive_count() <= CULL_MAX_PRIMITIVES && !culling_moves_the_max(scene))),
+        ("SC_CULL", u32::from(key.cull && !indexed && scene.primitive_count() <= CULL_MAX_PRIMITIVES && !scene.max_needs_every_group())),
         ("SC_EXTENSION", u32::from(key.extension)),
         ("SC_TRANSPARENT", u32::from(key.transparent)),
         ("SC_SECONDARY", u32::from(key.secondary)),

@@ -197,6 +197,17 @@ impl Scene {
         self.primitives().any(|p| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. }))
     }
 
+    /// Whether the max over groups needs every group's sum, even that of a
+    /// group no primitive of which reaches the query. Per-ray culling and
+    /// the spatial index skip such groups, which is exact while every
+    /// group's sum is >= 0 (a skipped group's is 0). An HRBF group goes
+    /// far below 0, so with other groups skipping them would give
+    /// `max(H) - iso` where the field is `max(H, 0) - iso`: the same
+    /// surface (iso > 0), but other values and steps than the f64 mirror.
+    pub fn max_needs_every_group(&self) -> bool {
+        self.groups.len() > 1 && self.primitives().any(|p| matches!(p, Primitive::Hrbf { .. } | Primitive::Affine { .. }))
+    }
+
     pub fn primitive_count(&self) -> usize {
         self.groups.iter().map(Vec::len).sum()
     }
