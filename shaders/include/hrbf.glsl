@@ -66,10 +66,17 @@ vec2 hrbf_m(HrbfRay g, float s) {
                 ah * (10.0 * s2 * s2 + 15.0 * s2 + 3.0) - 3.0 * g.c0_hat);
 }
 
-// One safeguarded Newton step on the bracket [a, b] of a root of M.
-void hrbf_newton(HrbfRay g, bool a_positive, inout float a, inout float b, inout float s) {
+// One safeguarded Newton step on the bracket [a, b] of a root of M, with
+// M's values ma and mb at its ends.
+void hrbf_newton(HrbfRay g, bool a_positive, inout float a, inout float b, inout float ma, inout float mb, inout float s) {
     vec2 m = hrbf_m(g, s);
-    if ((m.x > 0.0) == a_positive) a = s; else b = s;
+    if ((m.x > 0.0) == a_positive) {
+        a = s;
+        ma = m.x;
+    } else {
+        b = s;
+        mb = m.x;
+    }
     float newton = s - m.x / m.y;
     s = m.y != 0.0 && newton > a && newton < b ? newton : 0.5 * (a + b);
 }
@@ -77,6 +84,12 @@ void hrbf_newton(HrbfRay g, bool a_positive, inout float a, inout float b, inout
 // The root of M on [a, b], where it is monotone, taken into the range of
 // g'' when M changes sign there. Straight-line steps: lavapipe counts loop
 // turns against its per-invocation cap, and runs straight code faster.
+//
+// g'' at the estimate s differs from its extremum at the root s* by at most
+// sup|g'''| · h |s - s*|, and with ρ⁵ g''' = 3 h⁴ M, ρ >= h and M monotone
+// on the bracket, that is at most 3 (b - a) max(|M(a)|, |M(b)|): the value
+// taken is widened by it, so the range stays a valid one however far the
+// steps got (once they converge the pad vanishes).
 void hrbf_piece(HrbfRay g, float a, float b, inout vec2 range) {
     if (!(a < b)) return;
     float ma = hrbf_m(g, a).x;
@@ -84,18 +97,19 @@ void hrbf_piece(HrbfRay g, float a, float b, inout vec2 range) {
     if ((ma > 0.0) == (mb > 0.0) && ma != 0.0 && mb != 0.0) return;
     bool a_positive = ma > 0.0;
     float s = 0.5 * (a + b);
-    hrbf_newton(g, a_positive, a, b, s);
-    hrbf_newton(g, a_positive, a, b, s);
-    hrbf_newton(g, a_positive, a, b, s);
-    hrbf_newton(g, a_positive, a, b, s);
-    hrbf_newton(g, a_positive, a, b, s);
-    hrbf_newton(g, a_positive, a, b, s);
-    hrbf_newton(g, a_positive, a, b, s);
-    hrbf_newton(g, a_positive, a, b, s);
-    hrbf_newton(g, a_positive, a, b, s);
-    hrbf_newton(g, a_positive, a, b, s);
+    hrbf_newton(g, a_positive, a, b, ma, mb, s);
+    hrbf_newton(g, a_positive, a, b, ma, mb, s);
+    hrbf_newton(g, a_positive, a, b, ma, mb, s);
+    hrbf_newton(g, a_positive, a, b, ma, mb, s);
+    hrbf_newton(g, a_positive, a, b, ma, mb, s);
+    hrbf_newton(g, a_positive, a, b, ma, mb, s);
+    hrbf_newton(g, a_positive, a, b, ma, mb, s);
+    hrbf_newton(g, a_positive, a, b, ma, mb, s);
+    hrbf_newton(g, a_positive, a, b, ma, mb, s);
+    hrbf_newton(g, a_positive, a, b, ma, mb, s);
     float d = hrbf_d2(g, g.h * s, true);
-    range = vec2(min(range.x, d), max(range.y, d));
+    float pad = 3.0 * (b - a) * max(abs(ma), abs(mb));
+    range = vec2(min(range.x, d - pad), max(range.y, d + pad));
 }
 
 // The exact range of g'' over [xa, xb]: the ends and the roots of g'''.

@@ -32,7 +32,10 @@
 //!   derivative `αh (10 s⁴ + 15 s² + 3) - 3 ĉ0` has at most two real roots
 //!   `±s*`, so M is monotone on at most three pieces and each holds at most
 //!   one root, found by safeguarded Newton. Real roots lie in
-//!   `|s| ≤ max(1, (1.5 (|ĉ0| + |c1|) / |αh|)^¼)`.
+//!   `|s| ≤ max(1, (1.5 (|ĉ0| + |c1|) / |αh|)^¼)`. g'' at the estimate is
+//!   widened by `3 (b - a) max(|M(a)|, |M(b)|)` over the final bracket
+//!   [a, b], a bound of how far it can be from g'' at the true root, so
+//!   that the range is valid however far the steps got.
 //! - **Linear Taylor** needs the range of g'; it is bounded (not exactly)
 //!   from g' at both ends and the range [m, M] of g'': g' lies below both
 //!   `g'(x0) + M τ` and `g'(x1) - m (L - τ)`, and above their mirror images.
@@ -158,8 +161,9 @@ impl OnRay {
         )
     }
 
-    /// The roots of g''' in `(xa, xb)`, as x.
-    fn d3_roots(&self, xa: f64, xb: f64) -> Vec<f64> {
+    /// The roots of g''' in `(xa, xb)`, as x, each with the most g'' there
+    /// may differ from g'' at the exact root ([`Self::monotone_root`]).
+    fn d3_roots(&self, xa: f64, xb: f64) -> Vec<(f64, f64)> {
         let mut out = Vec::new();
         if self.h == 0.0 {
             return out;
@@ -168,9 +172,9 @@ impl OnRay {
         let (c0, c1) = (self.c0_hat, self.c1);
         if ah == 0.0 {
             if c0 != 0.0 {
-                out.push(self.h * c1 / c0);
+                out.push((self.h * c1 / c0, 0.0));
             }
-            return out.into_iter().filter(|&x| x > xa && x < xb).collect();
+            return out.into_iter().filter(|&(x, _)| x > xa && x < xb).collect();
         }
         let bound = (1.5 * (c0.abs() + c1.abs()) / ah.abs()).powf(0.25).max(1.0);
         let (sa, sb) = ((xa / self.h).max(-bound), (xb / self.h).min(bound));
@@ -187,16 +191,19 @@ impl OnRay {
         }
         cuts.push(sb);
         for pair in cuts.windows(2) {
-            if let Some(s) = self.monotone_root(pair[0], pair[1]) {
-                out.push(self.h * s);
+            if let Some((s, pad)) = self.monotone_root(pair[0], pair[1]) {
+                out.push((self.h * s, pad));
             }
         }
         out
     }
 
-    /// The root of M on `[a, b]`, where M is monotone, if it changes sign.
-    fn monotone_root(&self, mut a: f64, mut b: f64) -> Option<f64> {
-        let (ma, mb) = (self.m(a).0, self.m(b).0);
+    /// The root of M on `[a, b]`, where M is monotone, if it changes sign,
+    /// and how far g'' at it may be from g'' at the true root: at most
+    /// `sup|g'''| h |s - s*|`, and with `ρ⁵ g''' = 3 h⁴ M`, `ρ >= h` and M
+    /// monotone on the final bracket, at most `3 (b - a) max(|M(a)|, |M(b)|)`.
+    fn monotone_root(&self, mut a: f64, mut b: f64) -> Option<(f64, f64)> {
+        let (mut ma, mut mb) = (self.m(a).0, self.m(b).0);
         if (ma > 0.0) == (mb > 0.0) && ma != 0.0 && mb != 0.0 {
             return None;
         }
@@ -206,8 +213,10 @@ impl OnRay {
             let (m, dm) = self.m(s);
             if (m > 0.0) == a_positive {
                 a = s;
+                ma = m;
             } else {
                 b = s;
+                mb = m;
             }
             let newton = s - m / dm;
             s = if dm != 0.0 && newton > a && newton < b { newton } else { 0.5 * (a + b) };
@@ -215,7 +224,7 @@ impl OnRay {
                 break;
             }
         }
-        Some(s)
+        Some((s, 3.0 * (b - a) * ma.abs().max(mb.abs())))
     }
 
     /// The exact range of g'' over `[xa, xb]`.
@@ -232,8 +241,10 @@ impl OnRay {
             see(self.d2(0.0, false));
             see(self.d2(0.0, true));
         }
-        for x in self.d3_roots(xa, xb) {
-            see(self.d2(x, true));
+        for (x, pad) in self.d3_roots(xa, xb) {
+            let d = self.d2(x, true);
+            see(d - pad);
+            see(d + pad);
         }
         (lo, hi)
     }
