@@ -57,7 +57,7 @@ impl PrimEval {
         match self {
             PrimEval::Point(p) => p.kernel.weight,
             PrimEval::Plane(p) => p.kernel.weight,
-            PrimEval::Hrbf(p) => p.alpha.abs() * p.reach.powi(3) + 3.0 * p.beta.length() * p.reach * p.reach,
+            PrimEval::Hrbf(p) => crate::scene::hrbf::term_size(p.alpha, p.beta, p.reach),
             PrimEval::Affine(p) => p.gradient.length() * p.reach + p.offset.abs(),
         }
     }

@@ -76,6 +76,13 @@ pub const CONDITION_LIMIT: f64 = 1e12;
 /// margin.
 pub const DEFAULT_MARGIN: f64 = 0.25;
 
+/// The largest size one term `α r³ + 3 r β·(x − p)` takes within distance
+/// `reach` of its point: `|α| reach³ + 3 |β| reach²`. The scene loader holds
+/// it below the GPU's f32 range; tests scale their tolerances by it.
+pub fn term_size(alpha: f64, beta: DVec3, reach: f64) -> f64 {
+    alpha.abs() * reach.powi(3) + 3.0 * beta.length() * reach * reach
+}
+
 /// Two control points closer than this times the bounding-box diagonal of
 /// all the points are rejected as coincident (exactly equal ones always are).
 pub const COINCIDENCE_TOLERANCE: f64 = 1e-9;

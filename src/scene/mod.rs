@@ -325,7 +325,7 @@ impl Checker<'_> {
         domain = Aabb { min: domain.min - DVec3::splat(margin), max: domain.max + DVec3::splat(margin) };
         // The GPU computes in f32: every term's size over the box must fit.
         let reach = domain.diagonal();
-        let largest = fit.alpha.iter().zip(&fit.beta).map(|(a, b)| a.abs() * reach.powi(3) + 3.0 * b.length() * reach * reach).fold(0.0, f64::max);
+        let largest = fit.alpha.iter().zip(&fit.beta).map(|(&a, &b)| hrbf::term_size(a, b, reach)).fold(0.0, f64::max);
         if !(largest < GPU_FLOAT_LIMIT) {
             return Err(self.err(&field, format!("the fitted terms reach {largest:.3e} in the box, beyond the GPU's f32 range ({GPU_FLOAT_LIMIT:.0e}); lower the margin or move the points apart")));
         }
