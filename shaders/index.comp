@@ -44,6 +44,12 @@ uint block_count() {
     return (list_count() + SCAN_BLOCK - 1u) / SCAN_BLOCK;
 }
 
+// The entries are a texel buffer (layout.rs: it may outgrow a storage
+// buffer's range).
+uint entry(uint k) {
+    return imageLoad(cell_entries, int(k)).x;
+}
+
 uint fill_counter(uint list) {
     return 1u + block_count() + list;
 }
@@ -55,7 +61,7 @@ void visit_lists(uint i, bool fill) {
     if (in_everywhere_list(pr)) {
         uint list = everywhere_list(group);
         if (fill) {
-            cell_entries[cell_start[list] + atomicAdd(index_scratch[fill_counter(list)], 1u)] = i;
+            imageStore(cell_entries, int(cell_start[list] + atomicAdd(index_scratch[fill_counter(list)], 1u)), uvec4(i));
         } else {
             atomicAdd(cell_start[list], 1u);
         }
@@ -69,7 +75,7 @@ void visit_lists(uint i, bool fill) {
         ivec3 cell = lo + ivec3(int(k) % span.x, (int(k) / span.x) % span.y, int(k) / (span.x * span.y));
         uint list = cell_list(group, cell);
         if (fill) {
-            cell_entries[cell_start[list] + atomicAdd(index_scratch[fill_counter(list)], 1u)] = i;
+            imageStore(cell_entries, int(cell_start[list] + atomicAdd(index_scratch[fill_counter(list)], 1u)), uvec4(i));
         } else {
             atomicAdd(cell_start[list], 1u);
         }
@@ -132,10 +138,10 @@ void main() {
         uint n = cell_start[i + 1u] - first;
         if (n > SORT_MAX) break;
         for (uint a = 1u; a < n; ++a) {
-            uint v = cell_entries[first + a];
+            uint v = entry(first + a);
             uint b = a;
-            for (; b > 0u && cell_entries[first + b - 1u] > v; --b) cell_entries[first + b] = cell_entries[first + b - 1u];
-            cell_entries[first + b] = v;
+            for (; b > 0u && entry(first + b - 1u) > v; --b) imageStore(cell_entries, int(first + b), uvec4(entry(first + b - 1u)));
+            imageStore(cell_entries, int(first + b), uvec4(v));
         }
         break;
     }

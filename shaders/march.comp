@@ -20,6 +20,7 @@ void main() {
 
     g_ray = i;
     March m;
+    uint turns = 0u;   // loop turns of the march so far
     if (push.first_slice != 0u) {
         m = march_start(ray.o.w, ray.d.w);
     } else {
@@ -28,6 +29,8 @@ void main() {
         m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w & 0xFFFFu, s.node.x, s.node.y, s.node.w, s.node.z, s.v.w, s.light.w, s.light.rgb,
                   s.trans.rgb, s.trans.w, s.refine.x, s.refine.y, s.refine.z, s.refine.w, s.n.w >> 24u, (s.n.w >> 16u) & 0xFFu);
         g_evals = s.n.y;
+        g_visits = s.tally.x;
+        turns = s.tally.y;
     }
     // What remains of the ray: bisection revisits it all, Algorithm 1 only
     // from the last point outside (refinement starts there).
@@ -38,6 +41,7 @@ void main() {
     cull_to_ray(o, u, from, ray.d.w);
     // One step or one evaluation of a refinement per turn (slice_steps turns).
     for (uint k = 0u; k < push.slice_steps && (m.flags & FLAG_DONE) == 0u; ++k) {
+        turns += 1u;
         if (!bisects) {
             algorithm1_turn(o, u, ray.d.w, m);
         } else if ((m.flags & FLAG_REFINING) != 0u) {
@@ -50,7 +54,7 @@ void main() {
     uint packed = m.flags | (m.refine_turns << 16u) | (m.refine_side << 24u);
     states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, m.first), uvec4(m.steps, g_evals, m.refine_evals, packed),
                               uvec4(m.depth, m.index, m.crossings, m.base_depth), vec4(m.color, m.last), vec4(m.transmittance, m.f_prev),
-                              vec4(m.ra, m.rb, m.ga, m.gb));
+                              vec4(m.ra, m.rb, m.ga, m.gb), uvec4(g_visits, turns, 0u, 0u));
     if ((m.flags & FLAG_DONE) == 0u) {
         atomicAdd(active_rays, 1u);
         return;
@@ -61,7 +65,7 @@ void main() {
     r.color = vec4(globals.background.rgb, 0.0);
     // Shading evaluations are not marching cost: count only the march.
     r.counts = uvec4(m.steps, g_evals, m.refine_evals, m.flags & (FLAG_HIT | FLAG_OUT_OF_STEPS));
-    r.crossings = uvec4(m.crossings, 0u, 0u, 0u);
+    r.crossings = uvec4(m.crossings, g_visits, turns, 0u);
     if ((m.flags & FLAG_HIT) != 0u) {
         // The first crossing: its normal and distance. A transparent march
         // may have passed it slices ago, behind what culling kept.

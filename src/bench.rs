@@ -32,6 +32,10 @@ pub struct MethodReport {
     pub steps_per_ray: f64,
     pub evals_per_ray: f64,
     pub refine_per_ray: f64,
+    /// Loop turns (steps and refinement evaluations) and list positions
+    /// visited per ray (see `MarchStats`).
+    pub turns_per_ray: f64,
+    pub visits_per_ray: f64,
     /// GPU time per ray: the median over repeats (`None` without GPU
     /// timestamps), then every repeat's, the fastest and the slowest.
     pub ns_per_ray: Option<f64>,
@@ -361,6 +365,8 @@ fn run_one(
             steps_per_ray: stats.steps_per_ray,
             evals_per_ray: stats.evals_per_ray,
             refine_per_ray: stats.refine_per_ray,
+            turns_per_ray: stats.turns_per_ray,
+            visits_per_ray: stats.visits_per_ray,
             ns_per_ray: stats.ns_per_ray,
             ns_per_ray_runs: Vec::new(),
             ns_per_ray_min: None,
@@ -452,9 +458,9 @@ pub fn markdown(report: &BenchReport) -> String {
         ));
     }
     s.push_str(&format!(
-        "| method | steps/ray | evals/ray | refine/ray | ns/ray | hit rate | miss rate | false hits | mean err | max err | steps vs {base} | time vs {base} |\n"
+        "| method | steps/ray | evals/ray | refine/ray | ns/ray | ns/eval | ns/turn | visits/eval | hit rate | miss rate | false hits | mean err | max err | steps vs {base} | time vs {base} |\n"
     ));
-    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     let spread = report.repeats > 1;
     let ns = |m: &MethodReport| match (m.ns_per_ray, m.ns_per_ray_min, m.ns_per_ray_max) {
         (Some(v), Some(lo), Some(hi)) if spread => format!("{v:.1} ({lo:.0}–{hi:.0})"),
@@ -467,13 +473,18 @@ pub fn markdown(report: &BenchReport) -> String {
         _ => "n/a".to_string(),
     };
     for m in &report.methods {
+        // The median time per ray over `count` units of work per ray.
+        let per = |count: f64| m.ns_per_ray.filter(|_| count > 0.0).map_or("n/a".to_string(), |ns| format!("{:.1}", ns / count));
         s.push_str(&format!(
-            "| {} | {:.2} | {:.1} | {:.2} | {} | {:.4} | {:.5} | {:.5} | {:.2e} | {:.2e} | {:.3}x | {} |\n",
+            "| {} | {:.2} | {:.1} | {:.2} | {} | {} | {} | {:.2} | {:.4} | {:.5} | {:.5} | {:.2e} | {:.2e} | {:.3}x | {} |\n",
             m.method,
             m.steps_per_ray,
             m.evals_per_ray,
             m.refine_per_ray,
             ns(m),
+            per(m.evals_per_ray),
+            per(m.turns_per_ray),
+            m.visits_per_ray / m.evals_per_ray.max(1e-9),
             m.hit_rate,
             m.miss_rate,
             m.false_hit_rate,

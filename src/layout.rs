@@ -48,7 +48,9 @@ fn glsl_type(rust: &str) -> &'static str {
 }
 
 gpu_structs! {
-    /// One primitive. Points: `a.xyz` centre. Planes: `a.xyz` unit normal,
+    /// One primitive. Points: `a.xyz` centre, `a.w` the radius for the
+    /// index (as `c.y`: the index walk tests a list entry with one texel).
+    /// Planes: `a.xyz` unit normal,
     /// `a.w` offset (the plane is `n·p = offset`).
     /// `b`: x support radius R (compact) or scale r (Gaussian), y 1/R² or
     /// s/r², z weight, w the distance where |dk/dd| peaks (R/√5 or r/√(2s)).
@@ -68,7 +70,10 @@ gpu_structs! {
     /// towards decreasing field), w hit distance or -1. `color`: shaded RGBA.
     /// `counts`: steps, kernel evaluations, refinement evaluations, flags.
     /// `crossings`: x crossings found (transparent rendering; the first
-    /// `MAX_CROSSINGS` are in the crossings buffer), yzw reserved.
+    /// `MAX_CROSSINGS` are in the crossings buffer), y list positions the
+    /// march's folds visited (entries of the index's lists, culled
+    /// primitives), z loop turns (steps and refinement evaluations), w
+    /// reserved.
     struct GpuResult { hit: Vec4, color: Vec4, counts: UVec4, crossings: UVec4 }
 
     /// What the bounds probe found for one query on `[t0, t1]`. A forward
@@ -94,7 +99,9 @@ gpu_structs! {
     /// pass over the primitives per turn) and the field at its ends as the
     /// interpolation uses them (z, w); the refinement's turns and the end
     /// its last turn moved are in bits 16-23 and 24-25 of `n.w`.
-    struct GpuMarchState { v: Vec4, n: UVec4, node: UVec4, light: Vec4, trans: Vec4, refine: Vec4 }
+    /// `tally`: list positions visited and loop turns so far (see
+    /// `GpuResult::crossings`), zw reserved.
+    struct GpuMarchState { v: Vec4, n: UVec4, node: UVec4, light: Vec4, trans: Vec4, refine: Vec4, tally: UVec4 }
 
     /// Scene-wide constants. `march`: x iso, y minimum step, z refinement
     /// tolerance, w global Lipschitz bound (sphere tracing).
@@ -277,56 +284,122 @@ pub struct Block {
     pub member: &'static str,
 }
 
-/// One storage-buffer binding of descriptor set 0, shared by the march and
-/// the bounds probe kernels. The renderer binds one buffer to each, in
-/// this order.
+/// What a binding of descriptor set 0 declares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Resource {
+    /// A storage buffer block.
+    Buffer(Block),
+    /// A read-only view of a buffer as texels, read with `texelFetch`:
+    /// `uniform {sampler} {name};`. On lavapipe a texel fetch is one gather,
+    /// where a storage-buffer load is a loop over the lanes with a bounds
+    /// check per component (docs/performance.md).
+    Texels { sampler: &'static str, name: &'static str, format: TexelFormat },
+    /// A view of a buffer as a storage image of texels (`imageLoad`,
+    /// `imageStore`): `layout({format}) uniform {image} {name};`. Its size
+    /// is limited by maxTexelBufferElements, not maxStorageBufferRange.
+    Image { image: &'static str, name: &'static str, format: TexelFormat },
+}
+
+/// The format of a buffer's texel view.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TexelFormat {
+    /// One `u32` a texel (GLSL `r32ui`).
+    R32Uint,
+    /// Four `u32` a texel (GLSL `rgba32ui`): a [`GpuPrimitive`] is four, read bit for bit (its floats through `uintBitsToFloat`).
+    Rgba32Uint,
+}
+
+impl TexelFormat {
+    /// Bytes of one texel.
+    pub fn bytes(self) -> u64 {
+        match self {
+            TexelFormat::R32Uint => 4,
+            TexelFormat::Rgba32Uint => 16,
+        }
+    }
+
+    fn glsl(self) -> &'static str {
+        match self {
+            TexelFormat::R32Uint => "r32ui",
+            TexelFormat::Rgba32Uint => "rgba32ui",
+        }
+    }
+}
+
+/// One binding of descriptor set 0, shared by the march, the bounds probe
+/// and the index build kernels. The renderer binds one buffer (or its texel
+/// view) to each, in this order; a buffer may be behind several bindings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Binding {
     pub index: u32,
-    pub block: Block,
+    pub resource: Resource,
     /// What the bounds probe (`#define BOUNDS_PROBE`) declares here instead.
     pub probe: Option<Block>,
     /// Comment lines written above the declaration.
     pub doc: &'static [&'static str],
 }
 
+const fn buffer(index: u32, access: Access, name: &'static str, member: &'static str) -> Binding {
+    Binding { index, resource: Resource::Buffer(Block { access, name, member }), probe: None, doc: &[] }
+}
+
 /// Every binding, by index from 0.
 pub const BINDINGS: &[Binding] = &[
-    Binding { index: 0, block: Block { access: Access::ReadOnly, name: "GlobalsBuffer", member: "GpuGlobals globals" }, probe: None, doc: &[] },
-    Binding { index: 1, block: Block { access: Access::ReadOnly, name: "PrimitiveBuffer", member: "GpuPrimitive prims[]" }, probe: None, doc: &[] },
-    Binding { index: 2, block: Block { access: Access::ReadOnly, name: "LightBuffer", member: "GpuLight lights[]" }, probe: None, doc: &[] },
-    Binding { index: 3, block: Block { access: Access::ReadOnly, name: "RayBuffer", member: "GpuRay rays[]" }, probe: None, doc: &[] },
+    buffer(0, Access::ReadOnly, "GlobalsBuffer", "GpuGlobals globals"),
     Binding {
-        index: 4,
-        block: Block { access: Access::WriteOnly, name: "ResultBuffer", member: "GpuResult results[]" },
+        doc: &["Written by the host; index.comp reads it here, the march as prim_texels."],
+        ..buffer(1, Access::ReadOnly, "PrimitiveBuffer", "GpuPrimitive prims[]")
+    },
+    buffer(2, Access::ReadOnly, "LightBuffer", "GpuLight lights[]"),
+    buffer(3, Access::ReadOnly, "RayBuffer", "GpuRay rays[]"),
+    Binding {
         probe: Some(Block { access: Access::WriteOnly, name: "BoundBuffer", member: "GpuBound bounds[]" }),
-        doc: &[],
+        ..buffer(4, Access::WriteOnly, "ResultBuffer", "GpuResult results[]")
     },
-    Binding { index: 5, block: Block { access: Access::ReadWrite, name: "StateBuffer", member: "GpuMarchState states[]" }, probe: None, doc: &[] },
+    buffer(5, Access::ReadWrite, "StateBuffer", "GpuMarchState states[]"),
+    Binding { doc: &["Rays still marching after this dispatch."], ..buffer(6, Access::ReadWrite, "ActiveBuffer", "uint active_rays") },
     Binding {
-        index: 6,
-        block: Block { access: Access::ReadWrite, name: "ActiveBuffer", member: "uint active_rays" },
-        probe: None,
-        doc: &["Rays still marching after this dispatch."],
-    },
-    Binding {
-        index: 7,
-        block: Block { access: Access::WriteOnly, name: "CrossingBuffer", member: "float crossings[]" },
-        probe: None,
         doc: &["Transparent rendering: each ray's crossings, MAX_CROSSINGS per ray, in", "order; the first is entering, then they alternate."],
+        ..buffer(7, Access::WriteOnly, "CrossingBuffer", "float crossings[]")
     },
     Binding {
-        index: 8,
-        block: Block { access: Access::ReadWrite, name: "CellBuffer", member: "uint cell_start[]" },
-        probe: None,
-        doc: &["The spatial index (grid.glsl, index.comp): where each list starts in", "cell_entries, and the total at the end."],
+        doc: &[
+            "The spatial index (grid.glsl, index.comp): where each list starts in",
+            "the entries, and the total at the end (the march reads it as cell_texels).",
+        ],
+        ..buffer(8, Access::ReadWrite, "CellBuffer", "uint cell_start[]")
     },
-    Binding { index: 9, block: Block { access: Access::ReadWrite, name: "EntryBuffer", member: "uint cell_entries[]" }, probe: None, doc: &[] },
     Binding {
-        index: 10,
-        block: Block { access: Access::ReadWrite, name: "IndexScratch", member: "uint index_scratch[]" },
+        index: 9,
+        resource: Resource::Image { image: "uimageBuffer", name: "cell_entries", format: TexelFormat::R32Uint },
         probe: None,
+        doc: &[
+            "The lists' entries, written by index.comp (the march reads them as",
+            "entry_texels): a storage image, so that it may hold more than a storage",
+            "buffer's range (a million blobs' index is 256 MB).",
+        ],
+    },
+    Binding {
         doc: &["The index build's scratch: the longest list, block totals, fill counters."],
+        ..buffer(10, Access::ReadWrite, "IndexScratch", "uint index_scratch[]")
+    },
+    Binding {
+        index: 11,
+        resource: Resource::Texels { sampler: "usamplerBuffer", name: "prim_texels", format: TexelFormat::Rgba32Uint },
+        probe: None,
+        doc: &["The marching kernels' view of binding 1: primitive i is texels 4i to 4i + 3 (a, b, c, ids)."],
+    },
+    Binding {
+        index: 12,
+        resource: Resource::Texels { sampler: "usamplerBuffer", name: "cell_texels", format: TexelFormat::R32Uint },
+        probe: None,
+        doc: &["The marching kernels' view of binding 8."],
+    },
+    Binding {
+        index: 13,
+        resource: Resource::Texels { sampler: "usamplerBuffer", name: "entry_texels", format: TexelFormat::R32Uint },
+        probe: None,
+        doc: &["The marching kernels' view of binding 9."],
     },
 ];
 
@@ -335,8 +408,17 @@ fn glsl_block(index: u32, block: &Block) -> String {
     format!("layout(std430, binding = {index}) {}buffer {} {{ {}; }};\n", block.access.qualifier(), block.name, block.member)
 }
 
-/// GLSL declarations of every storage buffer binding, in binding order;
-/// the bounds probe's alternatives under `#ifdef BOUNDS_PROBE`.
+/// The GLSL declaration of `resource` at binding `index`.
+fn glsl_resource(index: u32, resource: &Resource) -> String {
+    match resource {
+        Resource::Buffer(block) => glsl_block(index, block),
+        Resource::Texels { sampler, name, .. } => format!("layout(binding = {index}) uniform {sampler} {name};\n"),
+        Resource::Image { image, name, format } => format!("layout(binding = {index}, {}) uniform {image} {name};\n", format.glsl()),
+    }
+}
+
+/// GLSL declarations of every binding, in binding order; the bounds
+/// probe's alternatives under `#ifdef BOUNDS_PROBE`.
 pub fn glsl_bindings() -> String {
     let mut s = String::new();
     for b in BINDINGS {
@@ -344,12 +426,12 @@ pub fn glsl_bindings() -> String {
             s.push_str(&format!("// {line}\n"));
         }
         match &b.probe {
-            None => s.push_str(&glsl_block(b.index, &b.block)),
+            None => s.push_str(&glsl_resource(b.index, &b.resource)),
             Some(probe) => {
                 s.push_str("#ifdef BOUNDS_PROBE\n");
                 s.push_str(&glsl_block(b.index, probe));
                 s.push_str("#else\n");
-                s.push_str(&glsl_block(b.index, &b.block));
+                s.push_str(&glsl_resource(b.index, &b.resource));
                 s.push_str("#endif\n");
             }
         }
@@ -357,7 +439,7 @@ pub fn glsl_bindings() -> String {
     s
 }
 
-/// The whole generated `layout_bindings.glsl`: the storage buffers over
+/// The whole generated `layout_bindings.glsl`: the bindings over
 /// `layout.glsl`'s structs.
 pub fn glsl_bindings_file() -> String {
     let mut s = String::from(
@@ -398,7 +480,7 @@ mod tests {
     #[test]
     fn bindings_are_numbered_from_zero_in_order() {
         for (i, b) in super::BINDINGS.iter().enumerate() {
-            assert_eq!(b.index as usize, i, "binding {} ({}) is at position {i}", b.index, b.block.name);
+            assert_eq!(b.index as usize, i, "binding {} ({:?}) is at position {i}", b.index, b.resource);
         }
     }
 
@@ -426,7 +508,10 @@ mod tests {
         ] {
             assert!(glsl.contains(declaration), "missing:\n{declaration}\nin:\n{glsl}");
         }
-        assert_eq!(glsl.matches("buffer ").count(), super::BINDINGS.len() + 1, "one declaration per binding, two for binding 4");
+        let declarations = glsl.matches("layout(").count();
+        assert_eq!(declarations, super::BINDINGS.len() + 1, "one declaration per binding, two for binding 4");
+        assert!(glsl.contains("layout(binding = 9, r32ui) uniform uimageBuffer cell_entries;\n"));
+        assert!(glsl.contains("layout(binding = 11) uniform usamplerBuffer prim_texels;\n"));
         assert!(super::glsl_bindings_file().contains(&glsl));
     }
 }

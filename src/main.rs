@@ -681,6 +681,7 @@ fn info() -> Result<()> {
     for d in list_devices()? {
         println!("{}: {} ({}, Vulkan {})", d.index, d.name, d.kind, d.api_version);
         println!("    max storage buffer:       {} MiB", d.max_storage_buffer_range >> 20);
+        println!("    max texel buffer:         {} texels", d.max_texel_buffer_elements);
         println!("    max workgroup invocations: {}", d.max_compute_workgroup_invocations);
         println!("    max workgroup count:      {:?}", d.max_compute_workgroup_count);
         println!("    timestamps:               {} ({} ns/tick)", d.timestamps, d.timestamp_period_ns);
@@ -710,7 +711,7 @@ fn render(args: RenderArgs) -> Result<()> {
     let gpu = args.gpu.open()?;
     let s = render_to_files(&gpu.ctx, &job)?;
     eprintln!(
-        "{}: {}x{} with {} on {}: {:.2} steps/ray, {:.1} evals/ray, hit rate {:.3}{}",
+        "{}: {}x{} with {} on {}: {:.2} steps/ray, {:.1} evals/ray, {:.2} turns/ray, {:.1} visits/eval, hit rate {:.3}{}",
         job.output.display(),
         s.width,
         s.height,
@@ -718,8 +719,14 @@ fn render(args: RenderArgs) -> Result<()> {
         s.device,
         s.march.steps_per_ray,
         s.march.evals_per_ray,
+        s.march.turns_per_ray,
+        s.march.visits_per_ray / s.march.evals_per_ray.max(1e-9),
         s.march.hit_rate,
-        s.march.gpu_ms.map_or(String::new(), |ms| format!(", GPU {ms:.1} ms"))
+        s.march.gpu_ms.map_or(String::new(), |ms| format!(
+            ", GPU {ms:.1} ms ({}, {})",
+            s.march.ns_per_eval.map_or("n/a".into(), |v| format!("{v:.1} ns/eval")),
+            s.march.ns_per_turn.map_or("n/a".into(), |v| format!("{v:.1} ns/turn"))
+        ))
     );
     finish(&gpu.ctx)
 }

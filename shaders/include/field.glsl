@@ -9,6 +9,9 @@
 
 // Per-primitive kernel evaluations made by this invocation (values, bounds).
 uint g_evals = 0u;
+// Positions the folds' cursors visited (list entries, culled primitives),
+// whether they yielded an evaluation or not: the walk's work.
+uint g_visits = 0u;
 
 // Compact kernel w (1 - q/R²)³ of a squared distance q inside the support,
 // and dk/dq. b = (R, 1/R², w, -).

@@ -91,9 +91,10 @@ void on_crossing(vec3 o, vec3 u, float tc, bool entering, inout March m) {
     m.crossings += 1u;
     if (SC_SHADE != 0u) {
         if (!entering) m.transmittance *= exp(-globals.material.rgb * (tc - m.last));
-        uint evals = g_evals;
+        uvec2 counted = uvec2(g_evals, g_visits);
         vec3 n = surface_normal(o + tc * u);
-        g_evals = evals;
+        g_evals = counted.x;
+        g_visits = counted.y;
         float opacity = globals.material.w;
         m.color += m.transmittance * opacity * shade(n, u);
         m.transmittance *= 1.0 - opacity;

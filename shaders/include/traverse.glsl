@@ -46,6 +46,21 @@ Query ray_query(vec3 o, vec3 u, float t0, float t1) {
     return Query(o, u, t0, t1, false);
 }
 
+// --- The primitives, read through texel views (layout.rs: one gather a
+// texel on lavapipe, where a storage-buffer load is a loop over the lanes
+// with a bounds check per component). Integer texels, so that every bit
+// arrives as written (ids as floats would be denormals).
+
+// Texel k of primitive i (0 a, 1 b, 2 c, 3 ids).
+uvec4 prim_texel(uint i, uint k) {
+    return texelFetch(prim_texels, int(4u * i + k));
+}
+
+GpuPrimitive load_prim(uint i) {
+    return GpuPrimitive(uintBitsToFloat(prim_texel(i, 0u)), uintBitsToFloat(prim_texel(i, 1u)), uintBitsToFloat(prim_texel(i, 2u)),
+                        prim_texel(i, 3u));
+}
+
 // --- Per-ray culling, the flat cursor's set-up (without SC_INDEX).
 
 // With SC_CULL: bit i is set when primitive i's support meets the part of
@@ -79,7 +94,7 @@ void cull_to_ray(vec3 o, vec3 u, float ta, float tb) {
     if (SC_CULL == 0u) return;
     g_mask = uvec2(0u);
     for (uint i = 0u; i < globals.sizes.x; ++i) {
-        if (meets_ray(prims[i], o, u, ta, tb)) g_mask[i >> 5u] |= 1u << (i & 31u);
+        if (meets_ray(load_prim(i), o, u, ta, tb)) g_mask[i >> 5u] |= 1u << (i & 31u);
     }
 }
 
@@ -88,25 +103,55 @@ void uncull() {
     g_mask = uvec2(0xffffffffu);
 }
 
-// --- The cursor. One loop turn per position; a position may yield a
-// primitive or not (an empty cell, a primitive seen in an earlier cell).
-// Without SC_INDEX: the flat list; culled (SC_CULL), only the primitives
-// whose bits are set, one turn each, so that a fold costs what the ray
-// meets rather than what the scene holds. With SC_INDEX:
-// per group, its everywhere list and then the grid's lists along the query
-// (the one cell of a point; the cells a 3D DDA walks for an interval),
-// each primitive yielded in the first cell where the ray meets its support.
-const uint NO_PRIMITIVE = 0xffffffffu;
-
+// --- The flat cursor (without SC_INDEX): every primitive in order, or
+// culled (SC_CULL), only those whose bits are set, one loop turn each, so
+// that a fold costs what the ray meets rather than what the scene holds.
 struct Cursor {
-    uint at;        // the current entry (flat: the primitive)
-    uint end;       // the end of the current list
+    uint at;        // the primitive
+    uint end;       // past the last primitive
     uvec2 bits;     // SC_CULL: the culled primitives not yet yielded
-    uint group;     // SC_INDEX: the group walked
-    bool in_grid;   //   past the group's everywhere list
-    bool done;      //   every group walked
-    // The DDA over the grid's cells: the cell, its part [ta, tb] of the
-    // query, the next boundary per axis, the step between boundaries.
+};
+
+// SC_CULL: the lowest set bit's primitive (at least `end` when none is
+// left; bits past the last primitive, set by uncull, are past `end` too).
+uint lowest_bit(uvec2 bits) {
+    return bits.x != 0u ? uint(findLSB(bits.x)) : bits.y != 0u ? 32u + uint(findLSB(bits.y)) : 64u;
+}
+
+Cursor cursor_begin() {
+    Cursor c = Cursor(0u, globals.sizes.x, g_mask);
+    if (SC_CULL != 0u) c.at = lowest_bit(c.bits);
+    return c;
+}
+
+void cursor_advance(inout Cursor c) {
+    if (SC_CULL != 0u) {
+        c.bits[c.at >> 5u] &= ~(1u << (c.at & 31u));
+        c.at = lowest_bit(c.bits);
+    } else {
+        c.at += 1u;
+    }
+}
+
+// --- The spatial index's walk (SC_INDEX; grid.glsl has the lists). Per
+// group: its everywhere list, then the grid's lists along the query (the
+// one cell of a point; the cells a 3D DDA walks for an interval), each
+// primitive of the grid yielded in the first cell where the query meets
+// its support. Nested loops, so that a list entry costs a turn of a tight
+// loop: its index, one texel (the centre and the index radius) to test it,
+// and the rest of the primitive only when it is admitted.
+
+uint list_start(uint list) {
+    return texelFetch(cell_texels, int(list)).x;
+}
+
+uint list_entry(uint k) {
+    return texelFetch(entry_texels, int(k)).x;
+}
+
+// The DDA over the grid's cells: the cell, its part [ta, tb] of the query,
+// the next boundary per axis, the step between boundaries.
+struct Dda {
     ivec3 cell;
     ivec3 dir;
     vec3 t_next;
@@ -119,15 +164,17 @@ struct Cursor {
 
 // The DDA's start for the query: false when it misses the grid. A point
 // is a cell; an interval is clipped to the grid's box.
-bool dda_start(Query q, inout Cursor c) {
+bool dda_start(Query q, out Dda c) {
     vec3 lo = globals.grid.xyz;
     float h = globals.grid.w;
     vec3 hi = lo + h * vec3(globals.grid_dims.xyz);
     c.first_cell = true;
+    c.ta = 0.0;
+    c.tb = 0.0;
+    c.t_end = 0.0;
     if (q.point) {
-        if (any(lessThan(q.o, lo)) || any(greaterThanEqual(q.o, hi))) return false;
         c.cell = cell_of(q.o);
-        return true;
+        return !(any(lessThan(q.o, lo)) || any(greaterThanEqual(q.o, hi)));
     }
     vec3 inv_u = vec3(q.u.x < 0.0 ? -1.0 : 1.0, q.u.y < 0.0 ? -1.0 : 1.0, q.u.z < 0.0 ? -1.0 : 1.0) / max(abs(q.u), vec3(1e-30));
     vec3 ta3 = (lo - q.o) * inv_u;
@@ -136,7 +183,6 @@ bool dda_start(Query q, inout Cursor c) {
     vec3 tmax3 = max(ta3, tb3);
     float t_in = max(q.t0, max(tmin3.x, max(tmin3.y, tmin3.z)));
     c.t_end = min(q.t1, min(tmax3.x, min(tmax3.y, tmax3.z)));
-    if (t_in > c.t_end) return false;
     c.cell = cell_of(q.o + t_in * q.u);
     c.dir = ivec3(q.u.x > 0.0 ? 1 : q.u.x < 0.0 ? -1 : 0, q.u.y > 0.0 ? 1 : q.u.y < 0.0 ? -1 : 0, q.u.z > 0.0 ? 1 : q.u.z < 0.0 ? -1 : 0);
     vec3 boundary = lo + h * (vec3(c.cell) + vec3(greaterThan(c.dir, ivec3(0))));
@@ -144,112 +190,54 @@ bool dda_start(Query q, inout Cursor c) {
     c.t_delta = h * abs(inv_u);
     c.ta = t_in;
     c.tb = min(c.t_end, min(c.t_next.x, min(c.t_next.y, c.t_next.z)));
-    return true;
+    return t_in <= c.t_end;
 }
 
-void cursor_enter_list(inout Cursor c, uint list) {
-    c.at = cell_start[list];
-    c.end = cell_start[list + 1u];
+// The DDA's next cell, across the nearest boundary: false past the query's
+// end or the grid.
+bool dda_advance(inout Dda c) {
+    if (c.tb >= c.t_end) return false;
+    int axis = c.t_next.x <= c.t_next.y && c.t_next.x <= c.t_next.z ? 0 : c.t_next.y <= c.t_next.z ? 1 : 2;
+    c.cell[axis] += c.dir[axis];
+    c.t_next[axis] += c.t_delta[axis];
+    c.ta = c.tb;
+    c.tb = min(c.t_end, min(c.t_next.x, min(c.t_next.y, c.t_next.z)));
+    c.first_cell = false;
+    return c.cell[axis] >= 0 && c.cell[axis] < int(globals.grid_dims[axis]);
 }
 
-// Starts the group's walk at its everywhere list (cursor_advance then
-// goes on to the grid's cells along the query).
-void cursor_enter_group(inout Cursor c) {
-    c.in_grid = false;
-    cursor_enter_list(c, everywhere_list(c.group));
-}
-
-// SC_CULL: the lowest set bit's primitive (at least `end` when none is
-// left; bits past the last primitive, set by uncull, are past `end` too).
-uint lowest_bit(uvec2 bits) {
-    return bits.x != 0u ? uint(findLSB(bits.x)) : bits.y != 0u ? 32u + uint(findLSB(bits.y)) : 64u;
-}
-
-Cursor cursor_begin(Query q) {
-    Cursor c;
-    c.at = 0u;
-    c.end = globals.sizes.x;
-    c.group = 0u;
-    c.done = false;
-    if (SC_INDEX != 0u) {
-        cursor_enter_group(c);
-    } else if (SC_CULL != 0u) {
-        c.bits = g_mask;
-        c.at = lowest_bit(c.bits);
-    }
-    return c;
-}
-
-bool cursor_valid(Cursor c) {
-    return SC_INDEX != 0u ? !c.done : c.at < c.end;
-}
-
-// The primitive at the cursor's position, or NO_PRIMITIVE.
-uint cursor_primitive(Cursor c) {
-    if (SC_INDEX != 0u) return c.at < c.end ? cell_entries[c.at] : NO_PRIMITIVE;
-    return c.at;
-}
-
-// Whether the cursor hands pr to the evaluations. With the index: a
-// Gaussian is clipped at its radius for the index (pr.c.y), so that the
-// field does not depend on the cell it is evaluated in; along an interval,
-// a primitive of the grid is yielded once, in the cell where the query
-// first meets its support (the cells' parts of the query partition it;
-// the first and last open to either side), and not at all when the query
-// misses its support.
-bool cursor_admits(Cursor c, GpuPrimitive pr, Query q) {
-    if (SC_INDEX == 0u) return true;
+// Whether the walk hands grid primitive i, whose texel a holds its centre
+// and index radius (GpuPrimitive::a.w for points), to the evaluations in
+// the DDA's cell c. A point query: a Gaussian is clipped at its radius for
+// the index, so that the field does not depend on the cell it is evaluated
+// in (compact kernels test their support themselves). An interval: a
+// primitive is yielded once, in the cell where the query first meets its
+// support (the cells' parts of the query partition it; the first and last
+// open to either side), and not at all when the query misses its support.
+bool grid_admits(Dda c, vec4 a, bool gaussian, Query q) {
     if (q.point) {
-        vec3 d = q.o - pr.a.xyz;
-        return pr.ids.x != PRIM_GAUSSIAN_POINT || dot(d, d) < pr.c.y * pr.c.y;
+        vec3 d = q.o - a.xyz;
+        return !gaussian || dot(d, d) < a.w * a.w;
     }
-    if (!c.in_grid) return true;
-    vec2 g = point_on_ray(pr, q.o, q.u, 0.0);   // (h², -tc)
-    float r2 = pr.c.y * pr.c.y;
-    if (g.x >= r2) return false;
-    float s = sqrt(r2 - g.x);
-    float t_in = max(q.t0, -g.y - s);
-    if (t_in > min(q.t1, -g.y + s)) return false;
+    vec3 co = a.xyz - q.o;
+    float tc = dot(co, q.u);
+    vec3 w = co - tc * q.u;
+    float h2 = dot(w, w);
+    float r2 = a.w * a.w;
+    if (h2 >= r2) return false;
+    float s = sqrt(r2 - h2);
+    float t_in = max(q.t0, tc - s);
+    if (t_in > min(q.t1, tc + s)) return false;
     bool last = c.tb >= c.t_end;
     return (c.first_cell || t_in >= c.ta) && (last || t_in < c.tb);
 }
 
-// Moves to the next position: the next entry of the list, else the next
-// list (cell, group).
-void cursor_advance(Query q, inout Cursor c) {
-    if (SC_INDEX == 0u && SC_CULL != 0u) {
-        c.bits[c.at >> 5u] &= ~(1u << (c.at & 31u));
-        c.at = lowest_bit(c.bits);
-        return;
-    }
-    c.at += 1u;
-    if (SC_INDEX == 0u || c.at < c.end) return;
-    if (!c.in_grid) {
-        c.in_grid = true;
-        if (dda_start(q, c)) {
-            cursor_enter_list(c, cell_list(c.group, c.cell));
-            return;
-        }
-    } else if (!q.point && c.tb < c.t_end) {
-        // The DDA's next cell: across the nearest boundary.
-        int axis = c.t_next.x <= c.t_next.y && c.t_next.x <= c.t_next.z ? 0 : c.t_next.y <= c.t_next.z ? 1 : 2;
-        c.cell[axis] += c.dir[axis];
-        c.t_next[axis] += c.t_delta[axis];
-        c.ta = c.tb;
-        c.tb = min(c.t_end, min(c.t_next.x, min(c.t_next.y, c.t_next.z)));
-        c.first_cell = false;
-        if (c.cell[axis] >= 0 && c.cell[axis] < int(globals.grid_dims[axis])) {
-            cursor_enter_list(c, cell_list(c.group, c.cell));
-            return;
-        }
-    }
-    // The group is walked: the next one.
-    c.group += 1u;
-    if (c.group >= globals.sizes.y) {
-        c.done = true;
-        return;
-    }
-    cursor_enter_group(c);
+// The kind of grid primitive i: a point kind, known without a fetch when
+// the scene has one.
+uint grid_kind(uint i) {
+    if (SC_HAS_GAUSSIAN_POINT == 0u) return PRIM_COMPACT_POINT;
+    if (SC_HAS_COMPACT_POINT == 0u) return PRIM_GAUSSIAN_POINT;
+    return prim_texel(i, 3u).x;
 }
 
 // --- Terms: what one primitive adds to its group's sum. Each evaluation
@@ -437,30 +425,78 @@ void fold_group(uint what, Terms s, float len, inout Fold r) {
     }
 }
 
+Fold empty_fold() {
+    return Fold(-3.0e38, vec3(0.0), vec3(0.0), 0.0, Bound(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), false, vec2(-3.0e38), false);
+}
+
+// Adds primitive pr's terms for `what` to a group's sum. Only Gaussians
+// shorten the interval: a copy keeps len loop-invariant for scenes
+// without them.
+void add_terms(uint what, GpuPrimitive pr, Query q, inout Terms sum, inout float len) {
+    float valid = len;
+    sum = terms_add(what, sum, prim_terms(what, pr, q, valid));
+    if (what == EVAL_QUAD && SC_HAS_GAUSSIAN_POINT != 0u) len = valid;
+}
+
+// The fold over the spatial index: per group, its everywhere list and its
+// grid lists along the query. A group is folded into the max when it
+// yields a primitive, and group 0 always, as the flat fold does (so that a
+// query that meets nothing still gets the empty sum), in group order.
+Fold fold_indexed(uint what, Query q, inout float len) {
+    Fold r = empty_fold();
+    Dda start;
+    bool in_grid = dda_start(q, start);
+    for (uint g = 0u; g < globals.sizes.y; ++g) {
+        Terms sum = no_terms();
+        bool met = g == 0u;
+        uint list = everywhere_list(g);
+        uint end = list_start(list + 1u);
+        g_visits += end - list_start(list);
+        for (uint at = list_start(list); at < end; ++at) {
+            add_terms(what, load_prim(list_entry(at)), q, sum, len);
+            met = true;
+        }
+        Dda c = start;
+        for (bool more = in_grid; more; more = !q.point && dda_advance(c)) {
+            list = cell_list(g, c.cell);
+            end = list_start(list + 1u);
+            g_visits += end - list_start(list);
+            for (uint at = list_start(list); at < end; ++at) {
+                uint i = list_entry(at);
+                uint kind = grid_kind(i);
+                vec4 a = uintBitsToFloat(prim_texel(i, 0u));
+                if (!grid_admits(c, a, kind == PRIM_GAUSSIAN_POINT, q)) continue;
+                GpuPrimitive pr = GpuPrimitive(a, uintBitsToFloat(prim_texel(i, 1u)), uintBitsToFloat(prim_texel(i, 2u)), uvec4(kind, g, 0u, 0u));
+                if (what == EVAL_GRADIENT) pr.ids.z = prim_texel(i, 3u).z;
+                add_terms(what, pr, q, sum, len);
+                met = true;
+            }
+        }
+        if (met) fold_group(what, sum, len, r);
+    }
+    if (r.poisoned) poison_fold(r);
+    return r;
+}
+
 // The fold: every primitive the cursor yields, its terms summed per group,
 // groups combined by max. `len` is the interval t1 - t0; EVAL_QUAD may
 // shorten it (a validity interval, Section 4.2): later primitives are
 // bounded on the shorter interval, and earlier bounds stay valid on it.
 // Iso is not subtracted here.
 Fold fold_field(uint what, Query q, inout float len) {
-    Fold r = Fold(-3.0e38, vec3(0.0), vec3(0.0), 0.0, Bound(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), false, vec2(-3.0e38), false);
+    if (SC_INDEX != 0u) return fold_indexed(what, q, len);
+    Fold r = empty_fold();
     Terms sum = no_terms();
     uint group = 0u;
-    for (Cursor c = cursor_begin(q); cursor_valid(c); cursor_advance(q, c)) {
-        uint i = cursor_primitive(c);
-        if (i == NO_PRIMITIVE) continue;
-        GpuPrimitive pr = prims[i];
-        if (!cursor_admits(c, pr, q)) continue;
+    for (Cursor c = cursor_begin(); c.at < c.end; cursor_advance(c)) {
+        GpuPrimitive pr = load_prim(c.at);
+        g_visits += 1u;
         if (SC_MULTI_GROUP != 0u && pr.ids.y != group) {
             fold_group(what, sum, len, r);
             sum = no_terms();
             group = pr.ids.y;
         }
-        // Only Gaussians shorten the interval: a copy keeps len
-        // loop-invariant for scenes without them.
-        float valid = len;
-        sum = terms_add(what, sum, prim_terms(what, pr, q, valid));
-        if (what == EVAL_QUAD && SC_HAS_GAUSSIAN_POINT != 0u) len = valid;
+        add_terms(what, pr, q, sum, len);
     }
     fold_group(what, sum, len, r);
     if (r.poisoned) poison_fold(r);

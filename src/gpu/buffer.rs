@@ -8,6 +8,7 @@ use gpu_allocator::MemoryLocation;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 
 use super::Context;
+use crate::layout::TexelFormat;
 
 /// A storage buffer in host-visible memory: the host writes inputs and reads
 /// results directly. Lavapipe has a single memory type, and on discrete GPUs
@@ -17,6 +18,9 @@ pub struct Buffer {
     pub handle: vk::Buffer,
     allocation: Option<Allocation>,
     pub size: u64,
+    /// The view of the whole buffer as texels ([`Buffer::texels`]), null
+    /// for a plain storage buffer.
+    pub view: vk::BufferView,
 }
 
 impl Buffer {
@@ -25,11 +29,38 @@ impl Buffer {
         Buffer::with_usage(ctx, name, size, vk::BufferUsageFlags::STORAGE_BUFFER)
     }
 
+    /// A buffer of `size` bytes read and written as texels of `format`
+    /// through its [`Buffer::view`] (a uniform or storage texel buffer), and
+    /// as a storage buffer when `storage` (then within the storage range).
+    pub fn texels(ctx: &Arc<Context>, name: &str, size: u64, format: TexelFormat, storage: bool) -> Result<Buffer> {
+        let texels = size.max(16).div_ceil(format.bytes());
+        if texels > ctx.info.max_texel_buffer_elements {
+            bail!(
+                "{name}: {texels} texels exceed the device's largest texel buffer ({} texels, maxTexelBufferElements)",
+                ctx.info.max_texel_buffer_elements
+            );
+        }
+        let mut usage = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER;
+        if storage {
+            usage |= vk::BufferUsageFlags::STORAGE_BUFFER;
+        }
+        let mut buffer = Buffer::with_usage(ctx, name, texels * format.bytes(), usage)?;
+        let vk_format = match format {
+            TexelFormat::R32Uint => vk::Format::R32_UINT,
+            TexelFormat::Rgba32Uint => vk::Format::R32G32B32A32_UINT,
+        };
+        let info = vk::BufferViewCreateInfo::default().buffer(buffer.handle).format(vk_format).offset(0).range(vk::WHOLE_SIZE);
+        // SAFETY: the buffer is alive, made with texel usage, and its size a
+        // whole number of texels within the device's limit.
+        buffer.view = unsafe { ctx.device.create_buffer_view(&info, None) }.with_context(|| format!("creating the texel view of {name}"))?;
+        Ok(buffer)
+    }
+
     /// A host-visible buffer of `size` bytes for `usage` (e.g. the source
     /// of a copy into a swapchain image).
     pub fn with_usage(ctx: &Arc<Context>, name: &str, size: u64, usage: vk::BufferUsageFlags) -> Result<Buffer> {
         let size = size.max(16);
-        if size > ctx.info.max_storage_buffer_range {
+        if usage.contains(vk::BufferUsageFlags::STORAGE_BUFFER) && size > ctx.info.max_storage_buffer_range {
             bail!(
                 "{name}: {size} bytes exceed the device's largest storage buffer ({} bytes, maxStorageBufferRange)",
                 ctx.info.max_storage_buffer_range
@@ -68,7 +99,7 @@ impl Buffer {
             unsafe { ctx.device.destroy_buffer(handle, None) };
             return Err(anyhow!("binding memory for {name}: {e}"));
         }
-        Ok(Buffer { ctx: Arc::clone(ctx), handle, allocation: Some(allocation), size })
+        Ok(Buffer { ctx: Arc::clone(ctx), handle, allocation: Some(allocation), size, view: vk::BufferView::null() })
     }
 
     /// A buffer holding `data`.
@@ -123,7 +154,11 @@ impl Drop for Buffer {
             let _ = self.ctx.with_allocator(|a| Ok(a.free(allocation)?));
         }
         // SAFETY: work using this buffer has completed (fences are waited
-        // before results are read, and a hung context never gets here).
-        unsafe { self.ctx.device.destroy_buffer(self.handle, None) };
+        // before results are read, and a hung context never gets here);
+        // destroying a null view is a no-op.
+        unsafe {
+            self.ctx.device.destroy_buffer_view(self.view, None);
+            self.ctx.device.destroy_buffer(self.handle, None);
+        }
     }
 }

@@ -35,6 +35,8 @@ pub struct DeviceInfo {
     pub api_version: String,
     pub driver: String,
     pub max_storage_buffer_range: u64,
+    /// The most texels a buffer view may hold (maxTexelBufferElements).
+    pub max_texel_buffer_elements: u64,
     pub max_compute_workgroup_invocations: u32,
     pub max_compute_workgroup_count: [u32; 3],
     pub timestamp_period_ns: f32,
@@ -129,6 +131,7 @@ fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice, index: usize) -> D
         api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
         driver: format!("{:#x}", props.driver_version),
         max_storage_buffer_range: u64::from(props.limits.max_storage_buffer_range),
+        max_texel_buffer_elements: u64::from(props.limits.max_texel_buffer_elements),
         max_compute_workgroup_invocations: props.limits.max_compute_work_group_invocations,
         max_compute_workgroup_count: props.limits.max_compute_work_group_count,
         timestamp_period_ns: props.limits.timestamp_period,

@@ -1,4 +1,5 @@
-//! Compute pipelines over storage buffers, specialised by constants.
+//! Compute pipelines over buffers (storage buffers and texel views of
+//! them), specialised by constants.
 
 use std::sync::Arc;
 
@@ -6,9 +7,20 @@ use anyhow::{Context as _, Result, bail};
 use ash::vk;
 
 use super::{Buffer, Context};
+use crate::layout::{Binding, Resource};
 
-/// A compute pipeline whose bindings are storage buffers `0..bindings`, with
-/// a push-constant block of `push_constant_bytes`, and one descriptor set.
+/// The descriptor type of a binding.
+fn descriptor_type(b: &Binding) -> vk::DescriptorType {
+    match b.resource {
+        Resource::Buffer(_) => vk::DescriptorType::STORAGE_BUFFER,
+        Resource::Texels { .. } => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+        Resource::Image { .. } => vk::DescriptorType::STORAGE_TEXEL_BUFFER,
+    }
+}
+
+/// A compute pipeline over the bindings `bindings` (storage buffers and
+/// texel buffers), with a push-constant block of `push_constant_bytes`, and
+/// one descriptor set.
 pub struct ComputePipeline {
     ctx: Arc<Context>,
     pub pipeline: vk::Pipeline,
@@ -16,7 +28,7 @@ pub struct ComputePipeline {
     set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
-    bindings: u32,
+    types: Vec<vk::DescriptorType>,
 }
 
 impl ComputePipeline {
@@ -25,7 +37,7 @@ impl ComputePipeline {
     pub fn new(
         ctx: &Arc<Context>,
         spirv: &[u8],
-        bindings: u32,
+        bindings: &[Binding],
         push_constant_bytes: u32,
         specialization: &[(u32, u32)],
     ) -> Result<ComputePipeline> {
@@ -35,11 +47,14 @@ impl ComputePipeline {
         // SAFETY: valid SPIR-V built by build.rs.
         let module = unsafe { device.create_shader_module(&module_info, None) }.context("creating shader module")?;
 
-        let layout_bindings: Vec<_> = (0..bindings)
-            .map(|b| {
+        let types: Vec<vk::DescriptorType> = bindings.iter().map(descriptor_type).collect();
+        let layout_bindings: Vec<_> = bindings
+            .iter()
+            .zip(&types)
+            .map(|(b, &ty)| {
                 vk::DescriptorSetLayoutBinding::default()
-                    .binding(b)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .binding(b.index)
+                    .descriptor_type(ty)
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -51,7 +66,7 @@ impl ComputePipeline {
             set_layout: vk::DescriptorSetLayout::null(),
             pool: vk::DescriptorPool::null(),
             set: vk::DescriptorSet::null(),
-            bindings,
+            types: types.clone(),
         };
         // From here on, `this` owns whatever was created and Drop cleans up.
         let result = (|| -> Result<()> {
@@ -89,7 +104,13 @@ impl ComputePipeline {
                     .map_err(|(_, e)| e)
                     .context("creating compute pipeline")?[0];
 
-                let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: bindings.max(1) }];
+                let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
+                for &ty in &types {
+                    match sizes.iter_mut().find(|s| s.ty == ty) {
+                        Some(s) => s.descriptor_count += 1,
+                        None => sizes.push(vk::DescriptorPoolSize { ty, descriptor_count: 1 }),
+                    }
+                }
                 this.pool = device
                     .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None)
                     .context("creating descriptor pool")?;
@@ -108,26 +129,29 @@ impl ComputePipeline {
         Ok(this)
     }
 
-    /// Points every binding at its buffer (binding i gets `buffers[i]`).
+    /// Points every binding at its buffer (binding i gets `buffers[i]`, or
+    /// its texel view for a texel binding).
     pub fn bind(&self, buffers: &[&Buffer]) -> Result<()> {
-        if buffers.len() != self.bindings as usize {
-            bail!("pipeline has {} bindings, {} buffers given", self.bindings, buffers.len());
+        if buffers.len() != self.types.len() {
+            bail!("pipeline has {} bindings, {} buffers given", self.types.len(), buffers.len());
         }
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
             .iter()
             .map(|b| [vk::DescriptorBufferInfo { buffer: b.handle, offset: 0, range: vk::WHOLE_SIZE }])
             .collect();
-        let writes: Vec<_> = infos
-            .iter()
-            .enumerate()
-            .map(|(i, info)| {
-                vk::WriteDescriptorSet::default()
-                    .dst_set(self.set)
-                    .dst_binding(i as u32)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                    .buffer_info(info)
-            })
-            .collect();
+        let views: Vec<[vk::BufferView; 1]> = buffers.iter().map(|b| [b.view]).collect();
+        let mut writes = Vec::with_capacity(buffers.len());
+        for (i, &ty) in self.types.iter().enumerate() {
+            let write = vk::WriteDescriptorSet::default().dst_set(self.set).dst_binding(i as u32).descriptor_type(ty);
+            writes.push(if ty == vk::DescriptorType::STORAGE_BUFFER {
+                write.buffer_info(&infos[i])
+            } else {
+                if views[i][0] == vk::BufferView::null() {
+                    bail!("binding {i} is a texel buffer, and its buffer has no texel view");
+                }
+                write.descriptor_count(1).texel_buffer_view(&views[i])
+            });
+        }
         // SAFETY: the set is not in use by pending work when rebinding (the
         // renderer waits for each submission before changing buffers).
         unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };

@@ -201,6 +201,17 @@ pub struct MarchStats {
     pub max_steps_taken: u32,
     pub gpu_ms: Option<f64>,
     pub ns_per_ray: Option<f64>,
+    /// Loop turns of the march per ray: steps, and evaluations of a
+    /// crossing's refinement (one fold each).
+    pub turns_per_ray: f64,
+    /// List positions the folds visited per ray (entries of the spatial
+    /// index's lists, or culled primitives), yielding an evaluation or not.
+    pub visits_per_ray: f64,
+    /// GPU time per kernel evaluation (`ns_per_ray / evals_per_ray`), the
+    /// figure to hold against what the driver's arithmetic costs.
+    pub ns_per_eval: Option<f64>,
+    /// GPU time per loop turn.
+    pub ns_per_turn: Option<f64>,
 }
 
 impl MarchStats {
@@ -208,6 +219,7 @@ impl MarchStats {
     pub fn of<'a>(results: impl IntoIterator<Item = &'a GpuResult>, gpu_ns: Option<f64>) -> MarchStats {
         let mut s = MarchStats::default();
         let (mut hits, mut steps, mut evals, mut refine, mut oos) = (0u64, 0u64, 0u64, 0u64, 0u64);
+        let (mut visits, mut turns) = (0u64, 0u64);
         for r in results {
             s.rays += 1;
             steps += u64::from(r.counts[0]);
@@ -216,6 +228,8 @@ impl MarchStats {
             hits += u64::from(r.counts[3] & FLAG_HIT != 0);
             oos += u64::from(r.counts[3] & FLAG_OUT_OF_STEPS != 0);
             s.max_steps_taken = s.max_steps_taken.max(r.counts[0]);
+            visits += u64::from(r.crossings[1]);
+            turns += u64::from(r.crossings[2]);
         }
         let n = s.rays.max(1) as f64;
         s.hit_rate = hits as f64 / n;
@@ -225,6 +239,10 @@ impl MarchStats {
         s.out_of_steps_rate = oos as f64 / n;
         s.gpu_ms = gpu_ns.map(|ns| ns * 1e-6);
         s.ns_per_ray = gpu_ns.map(|ns| ns / n);
+        s.turns_per_ray = turns as f64 / n;
+        s.visits_per_ray = visits as f64 / n;
+        s.ns_per_eval = gpu_ns.filter(|_| evals > 0).map(|ns| ns / evals as f64);
+        s.ns_per_turn = gpu_ns.filter(|_| turns > 0).map(|ns| ns / turns as f64);
         s
     }
 }

@@ -14,6 +14,7 @@
 use anyhow::{Result, bail};
 use glam::DVec3;
 
+use crate::gpu::DeviceInfo;
 use crate::layout::{CELL_PAD, MAX_CELLS_PER_PRIMITIVE, SCAN_BLOCK};
 use crate::scene::{Kernel, Primitive, Scene};
 
@@ -168,16 +169,16 @@ impl GridSpec {
         (3f64.sqrt() * self.window / self.cell).ceil() as usize + 4
     }
 
-    /// Loop turns of one fold over the primitives along an interval (one
-    /// per entry, at least one per list walked), when no list holds more
-    /// than `longest` entries.
+    /// Loop turns of one fold over the primitives along an interval (the
+    /// walk's nested loops: one per group, per cell and per entry), when no
+    /// list holds more than `longest` entries.
     pub fn interval_iterations(&self, longest: usize) -> usize {
-        self.groups * (1 + self.cells_per_interval() * longest.max(1)) + self.everywhere
+        self.groups * (1 + self.cells_per_interval() * (1 + longest)) + self.everywhere
     }
 
     /// The same for a point query: its one cell.
     pub fn point_iterations(&self, longest: usize) -> usize {
-        self.groups * (1 + longest.max(1)) + self.everywhere
+        self.groups * (2 + longest) + self.everywhere
     }
 }
 
@@ -196,14 +197,23 @@ pub struct IndexStats {
     pub cell_size: f64,
 }
 
-/// Fails when the index of `spec` cannot fit the device's storage buffers.
-pub fn check_fits(spec: &GridSpec, max_buffer_bytes: u64, source: &str) -> Result<()> {
-    let words = spec.buffer_words();
-    let need = words.iter().map(|w| 4 * *w as u64).max().unwrap_or(0);
-    if need > max_buffer_bytes {
+/// Fails when the index of `spec` cannot fit the device's buffers: the
+/// list starts and the scratch are storage buffers, the entries a texel
+/// buffer (shaders reach it through texel views, whose limit is in texels).
+pub fn check_fits(spec: &GridSpec, device: &DeviceInfo, source: &str) -> Result<()> {
+    let [starts, entries, scratch] = spec.buffer_words();
+    let need = 4 * starts.max(scratch) as u64;
+    if need > device.max_storage_buffer_range {
         bail!(
-            "{source}: the spatial index needs a buffer of {need} bytes ({} entries), more than the device's {max_buffer_bytes}",
-            spec.entry_capacity
+            "{source}: the spatial index needs a buffer of {need} bytes ({} lists), more than the device's {}",
+            spec.lists(),
+            device.max_storage_buffer_range
+        );
+    }
+    if entries as u64 > device.max_texel_buffer_elements {
+        bail!(
+            "{source}: the spatial index may need {entries} entries, more than the device's texel buffers hold ({})",
+            device.max_texel_buffer_elements
         );
     }
     Ok(())

@@ -17,7 +17,7 @@ use crate::field::inversion::Inversion;
 use crate::field::{Field, PrimEval};
 use crate::settings::{QuadSettings, Refinement};
 use crate::gpu::{Buffer, ComputePipeline, Context, Submitter};
-use crate::layout::{self, GpuBound, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuResult, GpuRay};
+use crate::layout::{self, TexelFormat, GpuBound, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuResult, GpuRay};
 use crate::method::Method;
 use index::{GridSpec, IndexStats};
 use crate::scene::{self, Primitive, Scene};
@@ -247,13 +247,14 @@ pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
         for p in group {
             let e = PrimEval::new(p, &scene.bounds);
             let v4 = |v: glam::DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
+            let radius = radii.next().flatten().unwrap_or(0.0);
             let (a, kind) = match *p {
                 Primitive::Point { center, kernel } => {
                     let kind = match kernel {
                         scene::Kernel::Compact { .. } => layout::PRIM_COMPACT_POINT,
                         scene::Kernel::Gaussian { .. } => layout::PRIM_GAUSSIAN_POINT,
                     };
-                    (v4(center, 0.0), kind)
+                    (v4(center, radius), kind)
                 }
                 Primitive::Plane { normal, offset, .. } => (v4(normal, offset), layout::PRIM_COMPACT_PLANE),
                 Primitive::Hrbf { center, alpha, .. } => (v4(center, alpha), layout::PRIM_HRBF),
@@ -267,7 +268,7 @@ pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
             out.push(GpuPrimitive {
                 a,
                 b,
-                c: [c0 as f32, radii.next().flatten().unwrap_or(0.0) as f32, 0.0, 0.0],
+                c: [c0 as f32, radius as f32, 0.0, 0.0],
                 ids: [kind, gi as u32, colors.next().unwrap_or(0), 0],
             });
         }
@@ -347,12 +348,20 @@ fn specialization(scene: &Scene, method: Method, key: &PipelineKey, indexed: boo
         .collect()
 }
 
+/// The primitives' buffer: a storage buffer for the index build, texels
+/// for the march (`layout::BINDINGS`).
+fn primitive_buffer(ctx: &Arc<Context>, prims: &[GpuPrimitive]) -> Result<Buffer> {
+    let mut b = Buffer::texels(ctx, "primitives", size_of_val(prims) as u64, TexelFormat::Rgba32Uint, true)?;
+    b.write(0, prims)?;
+    Ok(b)
+}
+
 /// The spatial index's buffers for `grid` (one-word stand-ins without).
 fn index_buffers(ctx: &Arc<Context>, grid: Option<&GridSpec>) -> Result<[Buffer; 3]> {
     let words = grid.map_or([1; 3], |g| g.buffer_words());
     Ok([
-        Buffer::new(ctx, "index lists", 4 * words[0] as u64)?,
-        Buffer::new(ctx, "index entries", 4 * words[1] as u64)?,
+        Buffer::texels(ctx, "index lists", 4 * words[0] as u64, TexelFormat::R32Uint, true)?,
+        Buffer::texels(ctx, "index entries", 4 * words[1] as u64, TexelFormat::R32Uint, false)?,
         Buffer::new(ctx, "index scratch", 4 * words[2] as u64)?,
     ])
 }
@@ -381,7 +390,7 @@ impl Renderer {
         }
         let grid = GridSpec::for_scene(scene).filter(|_| indexed);
         if let Some(g) = &grid {
-            index::check_fits(g, ctx.info.max_storage_buffer_range, &scene.source)?;
+            index::check_fits(g, &ctx.info, &scene.source)?;
         }
         if grid.is_some() && scene.primitive_count() > index::MAX_INDEXED_PRIMITIVES {
             bail!(
@@ -403,7 +412,7 @@ impl Renderer {
             .collect();
         let mut renderer = Renderer {
             globals: Buffer::with_data(ctx, "globals", &[globals(scene, 2.0, scene.marching.quad, grid.as_ref())])?,
-            prims: Buffer::with_data(ctx, "primitives", &prims)?,
+            prims: primitive_buffer(ctx, &prims)?,
             lights: Buffer::with_data(ctx, "lights", &lights)?,
             rays: Buffer::new(ctx, "rays", (TILE_RAYS * size_of::<GpuRay>()) as u64)?,
             results: Buffer::new(ctx, "results", (TILE_RAYS * size_of::<GpuResult>()) as u64)?,
@@ -444,7 +453,7 @@ impl Renderer {
         };
         self.globals.write(0, &[globals(&self.scene, 2.0, self.scene.marching.quad, Some(&grid))])?;
         if self.index_pipeline.is_none() {
-            let p = ComputePipeline::new(&self.ctx, INDEX_SPV, layout::BINDINGS.len() as u32, PUSH_CONSTANT_BYTES, &[])?;
+            let p = ComputePipeline::new(&self.ctx, INDEX_SPV, layout::BINDINGS, PUSH_CONSTANT_BYTES, &[])?;
             p.bind(&self.bound_buffers())?;
             self.index_pipeline = Some(p);
         }
@@ -517,7 +526,7 @@ impl Renderer {
         }
         let grid = GridSpec::for_scene(scene).filter(|_| self.grid.is_some());
         if let Some(g) = &grid {
-            index::check_fits(g, self.ctx.info.max_storage_buffer_range, &scene.source)?;
+            index::check_fits(g, &self.ctx.info, &scene.source)?;
         }
         // Another box, other buffer sizes: new buffers first (nothing is
         // replaced if one fails), then every pipeline bound to them.
@@ -562,6 +571,9 @@ impl Renderer {
             &self.cells,
             &self.entries,
             &self.scratch,
+            &self.prims,
+            &self.cells,
+            &self.entries,
         ]
     }
 
@@ -578,7 +590,7 @@ impl Renderer {
                 EntryPoint::March => MARCH_SPV,
                 EntryPoint::BoundsProbe => BOUNDS_SPV,
             };
-            let p = ComputePipeline::new(&self.ctx, spirv, layout::BINDINGS.len() as u32, PUSH_CONSTANT_BYTES, &spec)?;
+            let p = ComputePipeline::new(&self.ctx, spirv, layout::BINDINGS, PUSH_CONSTANT_BYTES, &spec)?;
             p.bind(&self.bound_buffers())?;
             self.pipelines.insert(key, p);
         }

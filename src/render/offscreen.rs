@@ -150,6 +150,8 @@ pub fn march_frame(
         r.color = [c.x as f32, c.y as f32, c.z as f32, 1.0];
         r.counts[0] = traced.steps[i];
         r.counts[1] = traced.evals[i];
+        r.crossings[1] = traced.visits[i];
+        r.crossings[2] = traced.turns[i];
     }
     Ok(super::MarchOutput { results, crossings: Vec::new(), gpu_ns: traced.gpu_ns })
 }

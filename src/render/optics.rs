@@ -72,6 +72,9 @@ pub struct Traced {
     pub color: Vec<DVec3>,
     pub steps: Vec<u32>,
     pub evals: Vec<u32>,
+    /// List positions visited and loop turns (`GpuResult::crossings.yz`).
+    pub visits: Vec<u32>,
+    pub turns: Vec<u32>,
     pub gpu_ns: Option<f64>,
 }
 
@@ -106,6 +109,8 @@ pub fn trace(renderer: &mut Renderer, method: Method, options: MarchOptions, ray
         color: vec![DVec3::ZERO; rays.len()],
         steps: vec![0; rays.len()],
         evals: vec![0; rays.len()],
+        visits: vec![0; rays.len()],
+        turns: vec![0; rays.len()],
         gpu_ns: Some(0.0),
     };
     let mut paths: Vec<Path> = (0..rays.len()).map(|pixel| Path { pixel, weight: DVec3::ONE, inside: false }).collect();
@@ -124,6 +129,8 @@ pub fn trace(renderer: &mut Renderer, method: Method, options: MarchOptions, ray
         for ((ray, path), res) in current.iter().zip(&paths).zip(&marched.results) {
             out.steps[path.pixel] += res.counts[0];
             out.evals[path.pixel] += res.counts[1];
+            out.visits[path.pixel] += res.crossings[1];
+            out.turns[path.pixel] += res.crossings[2];
             let o = DVec3::new(ray.o[0].into(), ray.o[1].into(), ray.o[2].into());
             let d = DVec3::new(ray.d[0].into(), ray.d[1].into(), ray.d[2].into());
             if ray.d[3] < ray.o[3] || res.counts[3] & FLAG_HIT == 0 {
