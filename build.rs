@@ -38,13 +38,56 @@ fn run() -> Result<(), String> {
         println!("cargo:rerun-if-changed={}", file.display());
     }
 
+    // Every shader, and the marching kernels once more per variant of
+    // layout::SHADER_VARIANTS: (source, output stem, macros).
+    let mut jobs = Vec::new();
+    for file in sorted_files(&shaders, "comp")? {
+        println!("cargo:rerun-if-changed={}", file.display());
+        let stem = file.file_stem().and_then(|s| s.to_str()).ok_or("shader name is not UTF-8")?.to_string();
+        for (macro_name, value, suffix) in layout::shader_variants(&stem) {
+            jobs.push((file.clone(), format!("{stem}{suffix}"), Some((macro_name, value))));
+        }
+        jobs.push((file, stem, None));
+    }
+    // Two threads: spirv-opt takes about a minute per marching kernel.
+    let failures: Vec<String> = std::thread::scope(|scope| {
+        let (first, second) = jobs.split_at(jobs.len() / 2);
+        let handles: Vec<_> = [first, second]
+            .into_iter()
+            .map(|part| {
+                let (generated, bindings, include_dir, out) = (&generated, &bindings, &include_dir, &out);
+                scope.spawn(move || {
+                    part.iter()
+                        .filter_map(|(file, stem, define)| compile(file, stem, *define, generated, bindings, include_dir, out).err())
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles.into_iter().flat_map(|h| h.join().unwrap_or_else(|_| vec!["a shader compile thread panicked".into()])).collect()
+    });
+    if failures.is_empty() { Ok(()) } else { Err(failures.join("\n")) }
+}
+
+/// Compiles one shader to `OUT_DIR/{stem}.spv`, with `define` set.
+fn compile(
+    file: &Path,
+    stem: &str,
+    define: Option<(&str, &str)>,
+    generated: &str,
+    bindings: &str,
+    include_dir: &Path,
+    out: &Path,
+) -> Result<(), String> {
     let compiler = shaderc::Compiler::new().map_err(|e| format!("shaderc: {e}"))?;
     let mut options = shaderc::CompileOptions::new().map_err(|e| format!("shaderc options: {e}"))?;
     options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
     options.set_source_language(shaderc::SourceLanguage::GLSL);
     options.set_optimization_level(shaderc::OptimizationLevel::Performance);
     options.set_warnings_as_errors();
-    let include_root = include_dir.clone();
+    if let Some((name, value)) = define {
+        options.add_macro_definition(name, Some(value));
+    }
+    let (generated, bindings, include_root) = (generated.to_string(), bindings.to_string(), include_dir.to_path_buf());
     options.set_include_callback(move |name, _kind, _from, _depth| {
         if name == "layout.glsl" {
             return Ok(shaderc::ResolvedInclude {
@@ -63,22 +106,12 @@ fn run() -> Result<(), String> {
             .map(|content| shaderc::ResolvedInclude { resolved_name: path.display().to_string(), content })
             .map_err(|e| format!("cannot include {}: {e}", path.display()))
     });
-
-    let mut failures = Vec::new();
-    for file in sorted_files(&shaders, "comp")? {
-        println!("cargo:rerun-if-changed={}", file.display());
-        let source = std::fs::read_to_string(&file).map_err(|e| format!("reading {}: {e}", file.display()))?;
-        let name = file.display().to_string();
-        match compiler.compile_into_spirv(&source, shaderc::ShaderKind::Compute, &name, "main", Some(&options)) {
-            Ok(artifact) => {
-                let stem = file.file_stem().and_then(|s| s.to_str()).ok_or("shader name is not UTF-8")?;
-                std::fs::write(out.join(format!("{stem}.spv")), artifact.as_binary_u8())
-                    .map_err(|e| format!("writing {stem}.spv: {e}"))?;
-            }
-            Err(e) => failures.push(format!("shader compilation failed:\n{e}")),
-        }
-    }
-    if failures.is_empty() { Ok(()) } else { Err(failures.join("\n")) }
+    let source = std::fs::read_to_string(file).map_err(|e| format!("reading {}: {e}", file.display()))?;
+    let name = file.display().to_string();
+    let artifact = compiler
+        .compile_into_spirv(&source, shaderc::ShaderKind::Compute, &name, "main", Some(&options))
+        .map_err(|e| format!("shader compilation failed ({stem}):\n{e}"))?;
+    std::fs::write(out.join(format!("{stem}.spv")), artifact.as_binary_u8()).map_err(|e| format!("writing {stem}.spv: {e}"))
 }
 
 fn sorted_files(dir: &Path, extension: &str) -> Result<Vec<PathBuf>, String> {

@@ -21,6 +21,8 @@
 // [1, 1 + blocks) the block totals, then one fill counter per list.
 #extension GL_GOOGLE_include_directive : require
 
+#define INDEX_BUILD 1
+
 #include "layout.glsl"
 #include "layout_bindings.glsl"
 #include "grid.glsl"

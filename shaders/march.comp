@@ -14,6 +14,8 @@ layout(local_size_x = 64) in;
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= push.ray_count) return;
+    // A ray done in an earlier slice costs one load (its flags).
+    if (push.first_slice == 0u && (states[i].n.w & FLAG_DONE) != 0u) return;
     GpuRay ray = rays[i];
     vec3 o = ray.o.xyz;
     vec3 u = ray.d.xyz;
@@ -25,7 +27,6 @@ void main() {
         m = march_start(ray.o.w, ray.d.w);
     } else {
         GpuMarchState s = states[i];
-        if ((s.n.w & FLAG_DONE) != 0u) return;
         m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w & 0xFFFFu, s.node.x, s.node.y, s.node.w, s.node.z, s.v.w, s.light.w, s.light.rgb,
                   s.trans.rgb, s.trans.w, s.refine.x, s.refine.y, s.refine.z, s.refine.w, s.n.w >> 24u, (s.n.w >> 16u) & 0xFFu);
         g_evals = s.n.y;
@@ -52,10 +53,13 @@ void main() {
     }
     // The flags' upper half holds the refinement's turns and side.
     uint packed = m.flags | (m.refine_turns << 16u) | (m.refine_side << 24u);
-    states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, m.first), uvec4(m.steps, g_evals, m.refine_evals, packed),
-                              uvec4(m.depth, m.index, m.crossings, m.base_depth), vec4(m.color, m.last), vec4(m.transmittance, m.f_prev),
-                              vec4(m.ra, m.rb, m.ga, m.gb), uvec4(g_visits, turns, 0u, 0u));
-    if ((m.flags & FLAG_DONE) == 0u) {
+    if ((m.flags & FLAG_DONE) != 0u) {
+        // Later slices read only the flags of a ray that is done.
+        states[i].n.w = packed;
+    } else {
+        states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, m.first), uvec4(m.steps, g_evals, m.refine_evals, packed),
+                                  uvec4(m.depth, m.index, m.crossings, m.base_depth), vec4(m.color, m.last), vec4(m.transmittance, m.f_prev),
+                                  vec4(m.ra, m.rb, m.ga, m.gb), uvec4(g_visits, turns, 0u, 0u));
         atomicAdd(active_rays, 1u);
         return;
     }

@@ -204,6 +204,22 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
     (13, "SC_HAS_AFFINE"),
 ];
 
+/// The specialization constant that is a build variant instead: the
+/// marching kernels are compiled once without the spatial index and once
+/// with it (`{stem}_indexed.spv`), each holding only its own walk. As a
+/// constant the other walk would be inlined into every fold and removed
+/// only after lavapipe's passes over it, which made building a pipeline
+/// take seconds (docs/performance.md).
+pub const VARIANT_CONSTANT: &str = "SC_INDEX";
+
+/// The build variants of shader `stem`: (macro, value, file suffix).
+pub fn shader_variants(stem: &str) -> Vec<(&'static str, &'static str, &'static str)> {
+    match stem {
+        "march" | "bounds" => vec![("ISOMARCH_INDEXED", "1u", "_indexed")],
+        _ => Vec::new(),
+    }
+}
+
 /// The spatial index (shaders/include/grid.glsl, index.comp): a primitive
 /// whose padded box may cover more cells than this goes to its group's
 /// everywhere list.
@@ -413,7 +429,13 @@ fn glsl_resource(index: u32, resource: &Resource) -> String {
     match resource {
         Resource::Buffer(block) => glsl_block(index, block),
         Resource::Texels { sampler, name, .. } => format!("layout(binding = {index}) uniform {sampler} {name};\n"),
-        Resource::Image { image, name, format } => format!("layout(binding = {index}, {}) uniform {image} {name};\n", format.glsl()),
+        // Only the index build (index.comp defines INDEX_BUILD) declares
+        // the storage images: lavapipe builds every kernel that declares
+        // an image or a texel buffer for the views bound at its first
+        // dispatch, a second or more (docs/performance.md).
+        Resource::Image { image, name, format } => {
+            format!("#ifdef INDEX_BUILD\nlayout(binding = {index}, {}) uniform {image} {name};\n#endif\n", format.glsl())
+        }
     }
 }
 
@@ -460,6 +482,13 @@ pub fn glsl() -> String {
         s.push_str(&format!("const float {name} = {value:e};\n"));
     }
     for (id, name) in SPEC_CONSTANTS {
+        if *name == VARIANT_CONSTANT {
+            // A build variant (ISOMARCH_INDEXED) or, without one, 0.
+            s.push_str(&format!(
+                "#ifdef ISOMARCH_INDEXED\nconst uint {name} = ISOMARCH_INDEXED;\n#else\nconst uint {name} = 0u;\n#endif\n"
+            ));
+            continue;
+        }
         s.push_str(&format!("layout(constant_id = {id}) const uint {name} = 0u;\n"));
     }
     s.push_str(&glsl_structs());

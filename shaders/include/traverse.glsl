@@ -56,7 +56,11 @@ uvec4 prim_texel(uint i, uint k) {
     return texelFetch(prim_texels, int(4u * i + k));
 }
 
+// The flat list (scenes of at most 64 primitives, a few loads a step)
+// reads the storage buffer: a pipeline with texel fetches takes lavapipe
+// about a second longer to build, which only the index's scenes repay.
 GpuPrimitive load_prim(uint i) {
+    if (SC_INDEX == 0u) return prims[i];
     return GpuPrimitive(uintBitsToFloat(prim_texel(i, 0u)), uintBitsToFloat(prim_texel(i, 1u)), uintBitsToFloat(prim_texel(i, 2u)),
                         prim_texel(i, 3u));
 }

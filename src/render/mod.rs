@@ -26,6 +26,9 @@ use crate::scene::{self, Primitive, Scene};
 const MARCH_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march.spv"));
 /// SPIR-V of the bounds probe (tests of the inclusion functions).
 const BOUNDS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bounds.spv"));
+/// The same kernels walking the spatial index (build variants: layout::shader_variants).
+const MARCH_INDEXED_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march_indexed.spv"));
+const BOUNDS_INDEXED_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bounds_indexed.spv"));
 /// SPIR-V of the spatial index's build.
 const INDEX_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/index.spv"));
 
@@ -587,7 +590,9 @@ impl Renderer {
         if !self.pipelines.contains_key(&key) {
             let spec = specialization(&self.scene, method, &key, self.grid.is_some());
             let spirv = match entry {
+                EntryPoint::March if self.grid.is_some() => MARCH_INDEXED_SPV,
                 EntryPoint::March => MARCH_SPV,
+                EntryPoint::BoundsProbe if self.grid.is_some() => BOUNDS_INDEXED_SPV,
                 EntryPoint::BoundsProbe => BOUNDS_SPV,
             };
             let p = ComputePipeline::new(&self.ctx, spirv, layout::BINDINGS, PUSH_CONSTANT_BYTES, &spec)?;
