@@ -269,3 +269,37 @@ fn scenes_of_many_groups_march_flat() {
     assert_first_hits(&mut renderer, &s, &protocol_rays(&s.bounds, 64, 5), &[Method::QuadraticTaylor], "with many groups");
     assert_no_validation(&ctx);
 }
+
+/// Issue 25: a million compact blobs (`generate particles --count
+/// 1000000`) need an index of 64 million entries (256 MB), more than
+/// lavapipe's 128 MiB storage-buffer range: its entries are a texel buffer
+/// (134,217,728 texels), so the scene renders, and its hits on a sample of
+/// protocol rays and of camera rays agree with the f64 reference.
+#[test]
+fn a_million_blobs_index_outgrows_a_storage_buffer_and_matches_the_reference() {
+    let ctx = gpu();
+    let text = isomarch::generate::Particles { count: 1_000_000, seed: 1, gaussian: false, motion: false }.ron().unwrap();
+    let s = Scene::parse(&text, "a million particles").unwrap();
+    let s = s.recentred(s.bounds.center());
+    let spec = isomarch::render::index::GridSpec::for_scene(&s).expect("a million blobs march with the index");
+    let entry_bytes = 4 * spec.buffer_words()[1] as u64;
+    assert!(entry_bytes > ctx.info.max_storage_buffer_range, "{entry_bytes} bytes of entries fit a storage buffer: the test proves nothing");
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    let stats = renderer.index_stats().unwrap();
+    assert!(stats.entries > 20_000_000, "{stats:?}");
+    let protocol = protocol_rays(&s.bounds, 256, 7);
+    let (camera, pixels) = isomarch::render::rays::camera_rays(&s.camera, 24, 24, &s.bounds);
+    let camera: Vec<GpuRay> = camera.into_iter().zip(pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| r).collect();
+    for (rays, what) in [(protocol, "protocol rays"), (camera, "camera rays")] {
+        let reference = reference_hits(&s, &rays, false);
+        let hits = reference.iter().filter(|h| h.is_some()).count();
+        assert!(4 * hits >= rays.len(), "{what}: only {hits} of {} rays hit: too few to test", rays.len());
+        let tol = tolerance(&s);
+        for method in [Method::QuadraticTaylor, Method::Segment] {
+            let out = renderer.march(method, MarchOptions { shade: false, ..MarchOptions::for_scene(&s) }, &rays, |_| {}).unwrap();
+            let acc = accuracy(&out.results, &reference, tol, tol);
+            assert!(acc.misses + acc.false_hits == 0, "{method} {what}: {} missed, {} false", acc.misses, acc.false_hits);
+        }
+    }
+    assert_no_validation(&ctx);
+}
