@@ -35,10 +35,13 @@ pub const MAX_INDEX_GROUPS: usize = 16;
 /// length, so the entries a ray visits per unit of length, `density (h +
 /// 2ρ)³ / h`, are least at h = ρ.
 pub const CELL_PER_RADIUS: f64 = 1.0;
-/// The longest candidate interval of a step, in cells (measured: 2 and 4
-/// within noise of each other on the particle sweep, 8 slower;
-/// docs/spatial-index.md).
-pub const WINDOW_CELLS: f64 = 4.0;
+/// The longest candidate interval of a step, in cells. With storage-buffer
+/// loads 2 and 4 were within noise of each other on the particle sweep, 8
+/// slower (docs/spatial-index.md); once entries cost a texel fetch, 2 took
+/// 12–15% less GPU time than 4 on 1,000 blobs and 20% less on 1A8O, with
+/// fewer steps for segment tracing and 0.97x to 1.03x the steps for
+/// quadratic Taylor (docs/performance.md).
+pub const WINDOW_CELLS: f64 = 2.0;
 /// The clipped tails of a group's Gaussians add up to at most this
 /// fraction of iso anywhere (see [`index_radius`]).
 pub const GAUSSIAN_CLIP_FRACTION: f64 = 1e-3;
