@@ -75,6 +75,7 @@ void visit_lists(uint i, bool fill) {
     uint cells = uint(span.x * span.y * span.z);
     for (uint k = 0u; k < cells; ++k) {
         ivec3 cell = lo + ivec3(int(k) % span.x, (int(k) / span.x) % span.y, int(k) / (span.x * span.y));
+        if (!sphere_meets_cell(pr, cell)) continue;
         uint list = cell_list(group, cell);
         if (fill) {
             imageStore(cell_entries, int(cell_start[list] + atomicAdd(index_scratch[fill_counter(list)], 1u)), uvec4(i));

@@ -51,4 +51,17 @@ void primitive_cells(GpuPrimitive pr, out ivec3 lo, out ivec3 hi) {
     hi = cell_of(pr.a.xyz + pad);
 }
 
+// Whether a grid primitive's sphere, padded like its box, meets the cell:
+// only those cells list it (about 0.76 of its box's cells for a radius of
+// one cell). A walk yields a primitive in the cell holding the point where
+// the query first meets the sphere, or the point of a point query, and
+// such a cell meets the sphere; the pad covers the walk's rounding.
+bool sphere_meets_cell(GpuPrimitive pr, ivec3 cell) {
+    float h = globals.grid.w;
+    vec3 lo = globals.grid.xyz + h * vec3(cell);
+    vec3 d = max(max(lo - pr.a.xyz, pr.a.xyz - (lo + h)), vec3(0.0));
+    float r = pr.c.y + CELL_PAD * h;
+    return dot(d, d) < r * r;
+}
+
 #endif
