@@ -5,13 +5,13 @@
 // within a group, and groups combine by max (Eq. 20). Mirrors the fold of
 // src/field/fold.rs.
 //
-// The cursor is the flat list (per-ray culling, small scenes) or the
-// spatial index (SC_INDEX). Its contract: it yields every primitive whose
+// The primitives come from the flat list (per-ray culling, small scenes;
+// fold_field's cursor) or from the spatial index (SC_INDEX, a build
+// variant: fold_indexed's walk). Either yields every primitive whose
 // support meets the query (a point, or the ray on [t0, t1]), each once,
-// and a group's primitives one after another (groups in any order). The
-// accumulator folds the group it is summing into the max when the group
-// changes. It starts on group 0, so a query that meets no primitive still
-// gets the empty sum, 0 - iso.
+// and a group's primitives one after another, groups in order. A group is
+// folded into the max when it yields a primitive, and group 0 always, so
+// a query that meets no primitive still gets the empty sum, 0 - iso.
 #ifndef TRAVERSE_GLSL
 #define TRAVERSE_GLSL
 
