@@ -38,8 +38,8 @@ fn run() -> Result<(), String> {
         println!("cargo:rerun-if-changed={}", file.display());
     }
 
-    // Every shader, and the marching kernels once more per variant of
-    // layout::SHADER_VARIANTS: (source, output stem, macros).
+    // Every shader, and once more per build variant of
+    // layout::shader_variants: (source, output stem, macro).
     let mut jobs = Vec::new();
     for file in sorted_files(&shaders, "comp")? {
         println!("cargo:rerun-if-changed={}", file.display());

@@ -198,19 +198,19 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
     (7, "SC_EXTENSION"),
     (8, "SC_TRANSPARENT"),
     (9, "SC_SECONDARY"),
-    (10, "SC_INDEX"),
     (11, "SC_REFINE"),
     (12, "SC_HAS_HRBF"),
     (13, "SC_HAS_AFFINE"),
 ];
 
-/// The specialization constant that is a build variant instead: the
-/// marching kernels are compiled once without the spatial index and once
-/// with it (`{stem}_indexed.spv`), each holding only its own walk. As a
-/// constant the other walk would be inlined into every fold and removed
-/// only after lavapipe's passes over it, which made building a pipeline
-/// take seconds (docs/performance.md).
-pub const VARIANT_CONSTANT: &str = "SC_INDEX";
+/// `SC_INDEX`, whether the kernel walks the spatial index, is a build
+/// variant, not a specialization constant (its id 10 is retired): the
+/// marching kernels are compiled once without the index and once with it
+/// (`{stem}_indexed.spv`, `ISOMARCH_INDEXED`), each holding only its own
+/// walk. As a constant the other walk would be inlined into every fold and
+/// removed only after lavapipe's passes over it, which made building a
+/// pipeline take seconds (docs/performance.md).
+const VARIANT_CONSTANT: &str = "SC_INDEX";
 
 /// The build variants of shader `stem`: (macro, value, file suffix).
 pub fn shader_variants(stem: &str) -> Vec<(&'static str, &'static str, &'static str)> {
@@ -482,15 +482,12 @@ pub fn glsl() -> String {
         s.push_str(&format!("const float {name} = {value:e};\n"));
     }
     for (id, name) in SPEC_CONSTANTS {
-        if *name == VARIANT_CONSTANT {
-            // A build variant (ISOMARCH_INDEXED) or, without one, 0.
-            s.push_str(&format!(
-                "#ifdef ISOMARCH_INDEXED\nconst uint {name} = ISOMARCH_INDEXED;\n#else\nconst uint {name} = 0u;\n#endif\n"
-            ));
-            continue;
-        }
         s.push_str(&format!("layout(constant_id = {id}) const uint {name} = 0u;\n"));
     }
+    // A build variant (ISOMARCH_INDEXED) or, without one, 0.
+    s.push_str(&format!(
+        "#ifdef ISOMARCH_INDEXED\nconst uint {VARIANT_CONSTANT} = ISOMARCH_INDEXED;\n#else\nconst uint {VARIANT_CONSTANT} = 0u;\n#endif\n"
+    ));
     s.push_str(&glsl_structs());
     s.push_str("#endif\n");
     s

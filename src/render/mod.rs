@@ -339,7 +339,6 @@ fn specialization(scene: &Scene, method: Method, key: &PipelineKey, indexed: boo
         ("SC_EXTENSION", u32::from(key.extension)),
         ("SC_TRANSPARENT", u32::from(key.transparent)),
         ("SC_SECONDARY", u32::from(key.secondary)),
-        ("SC_INDEX", u32::from(indexed)),
         ("SC_REFINE", key.refine.shader_id()),
     ];
     values
