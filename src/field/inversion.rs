@@ -30,13 +30,14 @@
 //!   others. dynamol stops where g < 0.0125 and, out of its 32 steps,
 //!   takes the point of smallest g as a hit.
 //! - **Where no atom reaches** (the spatial index clips each Gaussian
-//!   where it adds less than `1e-3·iso/n`), the density is taken as that
-//!   floor, so g stays the distance to a lone atom just beyond its clip.
+//!   where it falls below its group's threshold τ, [`clip::threshold`]),
+//!   the density is taken as τ, so g stays the distance to a lone atom
+//!   at its clip.
 //!
 //! It needs what it assumes: one group of Gaussian points sharing s and
 //! the weight (a molecule scene); [`Inversion::of_field`] refuses others.
 
-use crate::field::Field;
+use crate::field::{Field, PrimEval, clip};
 use crate::settings::GAUSSIAN_BOUNDS_FRACTION;
 
 /// The over-relaxation factor ω of every step (dynamol's `omega`).
@@ -51,7 +52,7 @@ pub struct Inversion {
     pub s: f64,
     /// ln of the shared weight w.
     pub ln_w: f64,
-    /// ln of the density floor: `1e-3·iso/n`.
+    /// ln of the density floor: the index's clipping threshold τ.
     pub ln_floor: f64,
 }
 
@@ -79,7 +80,14 @@ impl Inversion {
         if o.ln_w <= field.iso.ln() {
             return Err("field-inversion: a blob's weight must exceed iso, or a lone blob has no surface to invert towards".into());
         }
-        o.ln_floor = (GAUSSIAN_BOUNDS_FRACTION * field.iso / prims.len() as f64).ln();
+        let gaussians: Vec<clip::Gaussian> = prims
+            .iter()
+            .filter_map(|p| match p {
+                PrimEval::Point(q) => Some(clip::Gaussian { center: q.center, r: q.kernel.scale, s: o.s, weight: q.kernel.weight }),
+                _ => None,
+            })
+            .collect();
+        o.ln_floor = clip::threshold(&gaussians, GAUSSIAN_BOUNDS_FRACTION * field.iso).ln();
         Ok(o)
     }
 

@@ -3,6 +3,7 @@
 
 pub mod bound;
 pub mod bounds;
+pub mod clip;
 pub mod fold;
 pub mod grid;
 pub mod hrbf;

@@ -14,8 +14,9 @@
 use anyhow::{Result, bail};
 use glam::DVec3;
 
+use crate::field::clip;
 use crate::gpu::DeviceInfo;
-use crate::layout::{CELL_PAD, MAX_CELLS_PER_PRIMITIVE, SCAN_BLOCK};
+use crate::layout::{CELL_PAD, MAX_CELLS_PER_PRIMITIVE, SCAN_BLOCK, SKIP_CELLS};
 use crate::scene::{Kernel, Primitive, Scene};
 
 /// Scenes of more primitives than per-ray culling handles march with the
@@ -42,24 +43,29 @@ pub const CELL_PER_RADIUS: f64 = 1.0;
 /// fewer steps for segment tracing and 0.97x to 1.03x the steps for
 /// quadratic Taylor (docs/performance.md).
 pub const WINDOW_CELLS: f64 = 2.0;
+/// The same where most of the grid's primitives are Gaussians: a cell is
+/// then about 2.7 of their scales r (the clipping radius), and a bound
+/// over more than a few r is loose. On 6WG6 at 500x500 quadratic Taylor
+/// took 0.83x the time of 2 cells with 1 cell, and as long with 0.5 or
+/// 0.75 (docs/molecules.md).
+pub const GAUSSIAN_WINDOW_CELLS: f64 = 1.0;
 /// The clipped tails of a group's Gaussians add up to at most this
 /// fraction of iso anywhere (see [`index_radius`]).
 pub const GAUSSIAN_CLIP_FRACTION: f64 = 1e-3;
 
 /// A primitive's radius for the index: its support for a compact kernel;
 /// for a Gaussian, the clipping radius ρ where `w e^{-s ρ²/r²}` falls to
-/// `GAUSSIAN_CLIP_FRACTION · iso / n`, `n` the Gaussians of its group. Each
-/// of them then adds less than `GAUSSIAN_CLIP_FRACTION · iso / n` beyond
-/// its ρ, so a group's sum loses less than `GAUSSIAN_CLIP_FRACTION · iso`
-/// at any point, however dense the scene (the bound needs no density). The
-/// rendered field is the clipped one; `None` for planes, HRBF terms and
-/// affine functions (not in the grid: their support is everywhere).
-pub fn index_radius(p: &Primitive, iso: f64, gaussians_in_group: usize) -> Option<f64> {
+/// the group's threshold τ (`clip::threshold`): the cut tails of a
+/// group's Gaussians add up to less than `GAUSSIAN_CLIP_FRACTION · iso` at
+/// any point, by a bound on how many centres the group packs near one
+/// point. The rendered field is the clipped one; `None` for planes, HRBF
+/// terms and affine functions (not in the grid: their support is
+/// everywhere).
+pub fn index_radius(p: &Primitive, tau: f64) -> Option<f64> {
     match *p {
         Primitive::Point { kernel: Kernel::Compact { radius, .. }, .. } => Some(radius),
-        Primitive::Point { kernel: Kernel::Gaussian { r, s, weight }, .. } => {
-            let ratio = weight * gaussians_in_group.max(1) as f64 / (GAUSSIAN_CLIP_FRACTION * iso);
-            Some(if ratio <= 1.0 { 0.0 } else { r * (ratio.ln() / s).sqrt() })
+        Primitive::Point { center, kernel: Kernel::Gaussian { r, s, weight } } => {
+            Some(clip::Gaussian { center, r, s, weight }.radius_at(tau))
         }
         Primitive::Plane { .. } | Primitive::Hrbf { .. } | Primitive::Affine { .. } => None,
     }
@@ -67,12 +73,20 @@ pub fn index_radius(p: &Primitive, iso: f64, gaussians_in_group: usize) -> Optio
 
 /// Index radii of every primitive in GPU order (group by group).
 pub fn index_radii(scene: &Scene) -> Vec<Option<f64>> {
+    let budget = GAUSSIAN_CLIP_FRACTION * scene.iso;
     scene
         .groups
         .iter()
         .flat_map(|g| {
-            let n = g.iter().filter(|p| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. })).count();
-            g.iter().map(move |p| index_radius(p, scene.iso, n))
+            let gaussians: Vec<clip::Gaussian> = g
+                .iter()
+                .filter_map(|p| match *p {
+                    Primitive::Point { center, kernel: Kernel::Gaussian { r, s, weight } } => Some(clip::Gaussian { center, r, s, weight }),
+                    _ => None,
+                })
+                .collect();
+            let tau = clip::threshold(&gaussians, budget);
+            g.iter().map(move |p| index_radius(p, tau))
         })
         .collect()
 }
@@ -131,6 +145,8 @@ impl GridSpec {
         }
         let d = cells(cell);
         let dims = [d.x as u32, d.y as u32, d.z as u32];
+        let gaussians = scene.primitives().filter(|p| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. })).count();
+        let window = cell * if 2 * gaussians > n { GAUSSIAN_WINDOW_CELLS } else { WINDOW_CELLS };
         let lists_per_group = (d.element_product() as usize) + 1;
         // Bounds that hold whichever way the GPU's f32 decides a primitive
         // on the edge of the everywhere test: at most its box's cells (and
@@ -151,7 +167,7 @@ impl GridSpec {
                 }
             }
         }
-        Some(GridSpec { origin: lo, cell, dims, groups, lists_per_group, entry_capacity, everywhere, window: WINDOW_CELLS * cell })
+        Some(GridSpec { origin: lo, cell, dims, groups, lists_per_group, entry_capacity, everywhere, window })
     }
 
     pub fn lists(&self) -> usize {
@@ -177,6 +193,19 @@ impl GridSpec {
     /// list holds more than `longest` entries.
     pub fn interval_iterations(&self, longest: usize) -> usize {
         self.groups * (1 + self.cells_per_interval() * (1 + longest)) + self.everywhere
+    }
+
+    /// Loop turns of the look-ahead over empty cells (once a turn).
+    pub fn skip_iterations(&self) -> usize {
+        self.groups * SKIP_CELLS as usize + SKIP_CELLS as usize
+    }
+
+    /// Whether a march may skip the cells that list no primitive: there
+    /// every group's sum is 0 and f = -iso, no crossing when iso > 0, as
+    /// long as no primitive is in an everywhere list (planes, HRBF terms,
+    /// affine functions, primitives too large for the grid).
+    pub fn skips_empty_cells(&self, iso: f64) -> bool {
+        self.everywhere == 0 && iso > 0.0
     }
 
     /// The same for a point query: its one cell.
