@@ -6,10 +6,10 @@
 # reference is slow on 20,000 atoms: RAYS rays, default 4096).
 #
 # Usage: bash scripts/table2.sh [MOLECULE] [OUT_DIR] [RAYS]
-# Default: the shared 6WG6.cif.gz, out/table2, 4096 rays.
+# Default: tests/data/molecules/6WG6.cif.gz (in the repository), out/table2, 4096 rays.
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 cd "$ISOMARCH_ROOT"
-MOL=${1:-../shared/data/molecules/6WG6.cif.gz}
+MOL=${1:-tests/data/molecules/6WG6.cif.gz}
 OUT=${2:-out/table2}
 RAYS=${3:-4096}
 METHODS=(segment quadratic quadratic-relaxed-t0 quadratic-relaxed-max quadratic-taylor field-inversion)

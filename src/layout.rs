@@ -109,7 +109,8 @@ gpu_structs! {
     /// `tuning`: x interval growth factor k (Algorithm 1), y the peak below
     /// which a Gaussian imposes no validity interval (`quadratic`), z the
     /// longest candidate interval of a step with the spatial index (0: no
-    /// limit), w reserved.
+    /// limit), w 1 when the march may skip cells that list no primitive
+    /// (the field is -iso < 0 there: every primitive is in the grid).
     /// `surface`: rgb the surface colour, w 1 when every primitive carries
     /// its own colour instead (`GpuPrimitive::ids.z`).
     /// `material`: transparent rendering's absorption per unit length (rgb)
@@ -229,6 +230,9 @@ pub const SCAN_BLOCK: u32 = 256;
 /// A primitive's box is padded by this fraction of a cell, so that the
 /// walk's rounding never misses the cell it looks in.
 pub const CELL_PAD: f32 = 1e-3;
+/// Cells a march looks ahead in one turn for the next cell that lists a
+/// primitive (empty space is skipped, shaders/include/traverse.glsl).
+pub const SKIP_CELLS: u32 = 64;
 
 /// Float constants shared with GLSL, as `(name, value)`.
 pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] =
@@ -269,6 +273,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("MAX_REFINE_TURNS", MAX_REFINE_TURNS),
     ("MAX_CELLS_PER_PRIMITIVE", MAX_CELLS_PER_PRIMITIVE),
     ("SCAN_BLOCK", SCAN_BLOCK),
+    ("SKIP_CELLS", SKIP_CELLS),
 ];
 
 /// How a kernel may use a storage buffer.

@@ -90,17 +90,30 @@ float gaussian_deriv(float amp, float alpha, float x, bool QUADRATIC) {
     return QUADRATIC ? 2.0 * alpha * (2.0 * alpha * x * x - 1.0) * k : -2.0 * alpha * x * k;
 }
 
+// The Gaussian's k' and k'' have their extrema in closed form: k'' is
+// least at 0 (-2α amp) and greatest at ±√(1.5/α) (4α amp e^{-3/2}); k' =
+// -2αx k is least at 1/√(2α) and greatest at -1/√(2α) (∓√(2α) amp
+// e^{-1/2}). An extremum inside [x0, x1] adds its value, so the range
+// costs the ends' exponentials and no more.
 Taylor gaussian_taylor(float w, float alpha, float h2, float x0, float x1, bool QUADRATIC) {
     g_evals += 1u;
     float amp = w * exp(-alpha * h2);
     vec3 v0 = gaussian_derivs(amp, alpha, x0);
     float d0 = QUADRATIC ? v0.z : v0.y;
     float d1 = gaussian_deriv(amp, alpha, x1, QUADRATIC);
-    float c = QUADRATIC ? sqrt(1.5 / alpha) : inversesqrt(2.0 * alpha);
-    float dm = gaussian_deriv(amp, alpha, clamp(-c, x0, x1), QUADRATIC);
-    float dp = gaussian_deriv(amp, alpha, clamp(c, x0, x1), QUADRATIC);
-    float dz = QUADRATIC ? gaussian_deriv(amp, alpha, clamp(0.0, x0, x1), true) : d0;
-    return Taylor(v0.x, v0.y, min(min(min(d0, d1), min(dm, dp)), dz), max(max(max(d0, d1), max(dm, dp)), dz));
+    float lo = min(d0, d1);
+    float hi = max(d0, d1);
+    if (QUADRATIC) {
+        float c = sqrt(1.5 / alpha);
+        if (x0 <= 0.0 && x1 >= 0.0) lo = min(lo, -2.0 * alpha * amp);
+        if ((x0 <= c && x1 >= c) || (x0 <= -c && x1 >= -c)) hi = max(hi, 4.0 * alpha * amp * 0.22313016);   // e^{-3/2}
+    } else {
+        float c = inversesqrt(2.0 * alpha);
+        float peak = sqrt(2.0 * alpha) * amp * 0.60653066;   // e^{-1/2}
+        if (x0 <= c && x1 >= c) lo = min(lo, -peak);
+        if (x0 <= -c && x1 >= -c) hi = max(hi, peak);
+    }
+    return Taylor(v0.x, v0.y, lo, hi);
 }
 
 // One primitive's Taylor data along o + t u on [t0, t1], per kind.

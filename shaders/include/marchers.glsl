@@ -263,6 +263,22 @@ void algorithm1_turn(vec3 o, vec3 u, float tmax, inout March m) {
     } else if (m.steps >= globals.sizes.w) {
         m.flags |= FLAG_DONE | FLAG_OUT_OF_STEPS;
         return;
+    } else if (SC_INDEX != 0u && globals.tuning.w != 0.0) {
+        // Across empty cells in one move (f = -iso there): no step, no
+        // evaluation; the march goes on from the first cell that lists a
+        // primitive, or ends at tmax.
+        float t = skip_empty_cells(o, u, t0, tmax);
+        if (t > t0) {
+            m.t = t;
+            m.t_prev = t;
+            m.f_prev = -globals.march.x;
+            if (t >= tmax) {
+                m.flags |= FLAG_DONE;
+                return;
+            }
+            t0 = t;
+            t1 = min(t + m.window, tmax);
+        }
     }
     uint before = g_evals;
     StepEval e = step_eval(o, u, t0, t1);

@@ -210,6 +210,27 @@ bool dda_advance(inout Dda c) {
     return c.cell[axis] >= 0 && c.cell[axis] < int(globals.grid_dims[axis]);
 }
 
+// Empty space (globals.tuning.w, set when every primitive is in the grid
+// and iso > 0): in a cell whose lists are all empty no support reaches,
+// every group's sum is 0 and f = -iso < 0, so no crossing lies there. The
+// ray's parameter where, from t0, it first enters a cell that lists a
+// primitive (t0 itself when it is in one), tmax when none is left before
+// tmax, or where the look-ahead of SKIP_CELLS cells stopped (the next turn
+// goes on from there). A list's padded sphere test (CELL_PAD) covers the
+// DDA's rounding.
+float skip_empty_cells(vec3 o, vec3 u, float t0, float tmax) {
+    Dda c;
+    if (!dda_start(ray_query(o, u, t0, tmax), c)) return tmax;
+    for (uint k = 0u; k < SKIP_CELLS; ++k) {
+        for (uint g = 0u; g < globals.sizes.y; ++g) {
+            uint list = cell_list(g, c.cell);
+            if (list_start(list + 1u) != list_start(list)) return max(t0, c.ta);
+        }
+        if (!dda_advance(c)) return tmax;
+    }
+    return max(t0, c.ta);
+}
+
 // Whether the walk hands grid primitive i, whose texel a holds its centre
 // and index radius (GpuPrimitive::a.w for points), to the evaluations in
 // the DDA's cell c. A point query: a Gaussian is clipped at its radius for

@@ -93,17 +93,19 @@ struct FoldCost {
     point: usize,
     /// The per-ray culling once per slice (the flat list only).
     cull: usize,
+    /// The look-ahead over empty cells once per turn (the index only).
+    skip: usize,
 }
 
 impl FoldCost {
     /// Without the index: every primitive, and as many to cull them.
     fn flat(primitives: usize) -> FoldCost {
-        FoldCost { interval: primitives, point: primitives, cull: primitives }
+        FoldCost { interval: primitives, point: primitives, cull: primitives, skip: 0 }
     }
 
     /// With the index whose longest cell list holds `longest` entries.
     fn indexed(grid: &GridSpec, longest: usize) -> FoldCost {
-        FoldCost { interval: grid.interval_iterations(longest), point: grid.point_iterations(longest), cull: 0 }
+        FoldCost { interval: grid.interval_iterations(longest), point: grid.point_iterations(longest), cull: 0, skip: grid.skip_iterations() }
     }
 }
 
@@ -114,7 +116,7 @@ impl FoldCost {
 /// normal and shading.
 fn slice_steps(cost: FoldCost, lights: usize) -> Result<u32> {
     let fixed = cost.cull + cost.point + 2 + lights + SMALL_LOOPS;
-    let per_turn = 3 * cost.interval + lights + SMALL_LOOPS;
+    let per_turn = 3 * cost.interval + cost.skip + lights + SMALL_LOOPS;
     if fixed + per_turn > LOOP_BUDGET {
         bail!(
             "one marching step visits up to {} primitives, more than fit the per-dispatch loop budget ({LOOP_BUDGET} iterations); too many primitives overlap in one place",
@@ -303,7 +305,12 @@ fn globals(scene: &Scene, growth: f64, quad: QuadSettings, grid: Option<&GridSpe
             scene.lights.len() as u32,
             scene.marching.max_steps,
         ],
-        tuning: [growth as f32, validity_floor as f32, grid.map_or(0.0, |g| g.window as f32), 0.0],
+        tuning: [
+            growth as f32,
+            validity_floor as f32,
+            grid.map_or(0.0, |g| g.window as f32),
+            f32::from(u8::from(grid.is_some_and(|g| g.skips_empty_cells(scene.iso)))),
+        ],
         background: rgb(scene.background),
         surface: {
             let mut s = rgb(scene.surface);
