@@ -25,6 +25,8 @@
 
 use glam::DVec3;
 
+use crate::scene::{Kernel, Primitive};
+
 /// A Gaussian term `weight e^{-s d²/r²}` about `center`.
 #[derive(Clone, Copy, Debug)]
 pub struct Gaussian {
@@ -35,6 +37,14 @@ pub struct Gaussian {
 }
 
 impl Gaussian {
+    /// The Gaussian of a point primitive with a Gaussian kernel.
+    pub fn of(p: &Primitive) -> Option<Gaussian> {
+        match *p {
+            Primitive::Point { center, kernel: Kernel::Gaussian { r, s, weight } } => Some(Gaussian { center, r, s, weight }),
+            _ => None,
+        }
+    }
+
     fn decay(&self) -> f64 {
         self.s / (self.r * self.r)
     }

@@ -64,27 +64,21 @@ pub const GAUSSIAN_CLIP_FRACTION: f64 = 1e-3;
 pub fn index_radius(p: &Primitive, tau: f64) -> Option<f64> {
     match *p {
         Primitive::Point { kernel: Kernel::Compact { radius, .. }, .. } => Some(radius),
-        Primitive::Point { center, kernel: Kernel::Gaussian { r, s, weight } } => {
-            Some(clip::Gaussian { center, r, s, weight }.radius_at(tau))
-        }
+        Primitive::Point { .. } => clip::Gaussian::of(p).map(|g| g.radius_at(tau)),
         Primitive::Plane { .. } | Primitive::Hrbf { .. } | Primitive::Affine { .. } => None,
     }
 }
 
-/// Index radii of every primitive in GPU order (group by group).
+/// Index radii of every primitive in GPU order (group by group). The
+/// thresholds count centres on a grid: compute them once per pose and
+/// hand them to [`GridSpec::with_radii`] and `render::primitives_with_radii`.
 pub fn index_radii(scene: &Scene) -> Vec<Option<f64>> {
     let budget = GAUSSIAN_CLIP_FRACTION * scene.iso;
     scene
         .groups
         .iter()
         .flat_map(|g| {
-            let gaussians: Vec<clip::Gaussian> = g
-                .iter()
-                .filter_map(|p| match *p {
-                    Primitive::Point { center, kernel: Kernel::Gaussian { r, s, weight } } => Some(clip::Gaussian { center, r, s, weight }),
-                    _ => None,
-                })
-                .collect();
+            let gaussians: Vec<clip::Gaussian> = g.iter().filter_map(clip::Gaussian::of).collect();
             let tau = clip::threshold(&gaussians, budget);
             g.iter().map(move |p| index_radius(p, tau))
         })
@@ -118,17 +112,21 @@ impl GridSpec {
     /// (few primitives, many groups, or an HRBF in a max of groups:
     /// [`Scene::max_needs_every_group`]).
     pub fn for_scene(scene: &Scene) -> Option<GridSpec> {
+        GridSpec::with_radii(scene, &index_radii(scene))
+    }
+
+    /// [`GridSpec::for_scene`] with the scene's [`index_radii`] at hand.
+    pub fn with_radii(scene: &Scene, radii: &[Option<f64>]) -> Option<GridSpec> {
         let n = scene.primitive_count();
         if n < INDEX_MIN_PRIMITIVES || scene.groups.len() > MAX_INDEX_GROUPS || scene.max_needs_every_group() {
             return None;
         }
-        let radii = index_radii(scene);
         let mut sorted: Vec<f64> = radii.iter().flatten().copied().filter(|r| *r > 0.0).collect();
         sorted.sort_by(f64::total_cmp);
         let median = sorted.get(sorted.len() / 2).copied().unwrap_or(1.0);
         // The box: the scene's, grown to hold every clipping sphere.
         let (mut lo, mut hi) = (scene.bounds.min, scene.bounds.max);
-        for (p, r) in scene.primitives().zip(&radii) {
+        for (p, r) in scene.primitives().zip(radii) {
             if let (Primitive::Point { center, .. }, Some(r)) = (p, r) {
                 lo = lo.min(*center - DVec3::splat(*r));
                 hi = hi.max(*center + DVec3::splat(*r));
@@ -145,7 +143,7 @@ impl GridSpec {
         }
         let d = cells(cell);
         let dims = [d.x as u32, d.y as u32, d.z as u32];
-        let gaussians = scene.primitives().filter(|p| matches!(p, Primitive::Point { kernel: Kernel::Gaussian { .. }, .. })).count();
+        let gaussians = scene.primitives().filter_map(clip::Gaussian::of).count();
         let window = cell * if 2 * gaussians > n { GAUSSIAN_WINDOW_CELLS } else { WINDOW_CELLS };
         let lists_per_group = (d.element_product() as usize) + 1;
         // Bounds that hold whichever way the GPU's f32 decides a primitive
@@ -153,7 +151,7 @@ impl GridSpec {
         // at most MAX_CELLS_PER_PRIMITIVE) entries, and counted among the
         // everywhere entries whenever it might be one.
         let (mut entry_capacity, mut everywhere) = (0, 0);
-        for r in &radii {
+        for r in radii {
             match r {
                 Some(r) => {
                     let (lo, hi) = (span(*r * (1.0 - 1e-5), cell), span(*r * (1.0 + 1e-5) + 1e-6 * cell, cell));

@@ -245,7 +245,12 @@ pub struct Renderer {
 
 /// The primitives in GPU layout, sorted by group.
 pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
-    let mut radii = index::index_radii(scene).into_iter();
+    primitives_with_radii(scene, &index::index_radii(scene))
+}
+
+/// [`gpu_primitives`] with the scene's `index::index_radii` at hand.
+fn primitives_with_radii(scene: &Scene, radii: &[Option<f64>]) -> Vec<GpuPrimitive> {
+    let mut radii = radii.iter().copied();
     let mut colors = scene.colors.iter().flatten().map(|&c| pack_color(c));
     let mut out = Vec::with_capacity(scene.primitive_count());
     for (gi, group) in scene.groups.iter().enumerate() {
@@ -397,7 +402,8 @@ impl Renderer {
                 ctx.info.name
             );
         }
-        let grid = GridSpec::for_scene(scene).filter(|_| indexed);
+        let radii = index::index_radii(scene);
+        let grid = GridSpec::with_radii(scene, &radii).filter(|_| indexed);
         if let Some(g) = &grid {
             index::check_fits(g, &ctx.info, &scene.source)?;
         }
@@ -410,7 +416,7 @@ impl Renderer {
             );
         }
         let [cells, entries, scratch] = index_buffers(ctx, grid.as_ref())?;
-        let prims = gpu_primitives(scene);
+        let prims = primitives_with_radii(scene, &radii);
         let lights: Vec<GpuLight> = scene
             .lights
             .iter()
@@ -533,7 +539,8 @@ impl Renderer {
         if !same_shape {
             bail!("set_scene takes the same scene at another time; {} has different primitives", scene.source);
         }
-        let grid = GridSpec::for_scene(scene).filter(|_| self.grid.is_some());
+        let radii = index::index_radii(scene);
+        let grid = GridSpec::with_radii(scene, &radii).filter(|_| self.grid.is_some());
         if let Some(g) = &grid {
             index::check_fits(g, &self.ctx.info, &scene.source)?;
         }
@@ -541,7 +548,7 @@ impl Renderer {
         // replaced if one fails), then every pipeline bound to them.
         let resized = grid.map(|g| g.buffer_words()) != self.grid.map(|g| g.buffer_words());
         let buffers = if resized { Some(index_buffers(&self.ctx, grid.as_ref())?) } else { None };
-        self.prims.write(0, &gpu_primitives(scene))?;
+        self.prims.write(0, &primitives_with_radii(scene, &radii))?;
         self.scene = scene.clone();
         self.grid = grid;
         if let Some([cells, entries, scratch]) = buffers {
