@@ -18,7 +18,7 @@ void main() {
     vec3 u = q.d.xyz;
     float t0 = q.o.w;
     float t1 = q.d.w;
-    if (SC_METHOD == METHOD_SPHERE || SC_METHOD == METHOD_FIELD_INVERSION) {
+    if (SC_METHOD == METHOD_SPHERE || SC_METHOD == METHOD_FIELD_INVERSION || SC_METHOD == METHOD_FIELD_INVERSION_DYNAMOL) {
         // No bound: f and its gradient at t0.
         vec3 grad;
         float f = field_eval(o + t0 * u, true, grad);

@@ -161,6 +161,12 @@ pub const FLAG_ENDED: u32 = 64;
 /// `settings::Refinement`): straddling Illinois regula falsi, or bisection.
 pub const REFINE_SECANT: u32 = 0;
 pub const REFINE_BISECTION: u32 = 1;
+/// The inclusion methods fold their bound over the bracket, which moves
+/// both ends; the point methods refine by secant.
+pub const REFINE_INCLUSION: u32 = 2;
+/// Inclusion refinement: the last turn did not halve the bracket, so the
+/// next folds from its middle (`refine_side`).
+pub const REFINE_SIDE_SPLIT: u32 = 3;
 /// Secant refinement: turns that interpolate before every other turn bisects.
 pub const SECANT_FREE_TURNS: u32 = 4;
 /// Secant refinement: a point is placed this many tolerances past its
@@ -185,6 +191,7 @@ pub const METHOD_QUADRATIC: u32 = 7;
 pub const METHOD_QUADRATIC_RELAXED_T0: u32 = 8;
 pub const METHOD_QUADRATIC_RELAXED_MAX: u32 = 9;
 pub const METHOD_FIELD_INVERSION: u32 = 10;
+pub const METHOD_FIELD_INVERSION_DYNAMOL: u32 = 11;
 
 /// Specialization constants as `(constant_id, name)`; all are `uint`.
 /// `SC_HAS_*` are 0 or 1: a pipeline keeps only the code paths its scene uses.
@@ -236,10 +243,14 @@ pub const SKIP_CELLS: u32 = 64;
 
 /// Float constants shared with GLSL, as `(name, value)`.
 pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] =
-    &[("CELL_PAD", CELL_PAD), ("SECANT_STRADDLE", SECANT_STRADDLE), ("INVERSION_OVER_RELAXATION", INVERSION_OVER_RELAXATION)];
+    &[("CELL_PAD", CELL_PAD), ("SECANT_STRADDLE", SECANT_STRADDLE), ("INVERSION_OVER_RELAXATION", INVERSION_OVER_RELAXATION), ("DYNAMOL_EPSILON", DYNAMOL_EPSILON)];
 
 /// Field inversion's over-relaxation ω (src/field/inversion.rs).
 pub const INVERSION_OVER_RELAXATION: f32 = 1.2;
+/// dynamol's field inversion (`field-inversion-dynamol`): its step budget,
+/// and its hit rule, g below this many reference radii.
+pub const DYNAMOL_STEPS: u32 = 32;
+pub const DYNAMOL_EPSILON: f32 = 0.0125;
 
 /// Integer constants shared with GLSL, as `(name, value)`.
 pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
@@ -254,6 +265,8 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("METHOD_QUADRATIC_RELAXED_T0", METHOD_QUADRATIC_RELAXED_T0),
     ("METHOD_QUADRATIC_RELAXED_MAX", METHOD_QUADRATIC_RELAXED_MAX),
     ("METHOD_FIELD_INVERSION", METHOD_FIELD_INVERSION),
+    ("METHOD_FIELD_INVERSION_DYNAMOL", METHOD_FIELD_INVERSION_DYNAMOL),
+    ("DYNAMOL_STEPS", DYNAMOL_STEPS),
     ("PRIM_COMPACT_POINT", PRIM_COMPACT_POINT),
     ("PRIM_GAUSSIAN_POINT", PRIM_GAUSSIAN_POINT),
     ("PRIM_COMPACT_PLANE", PRIM_COMPACT_PLANE),
@@ -269,6 +282,8 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("MAX_CROSSINGS", MAX_CROSSINGS),
     ("REFINE_SECANT", REFINE_SECANT),
     ("REFINE_BISECTION", REFINE_BISECTION),
+    ("REFINE_INCLUSION", REFINE_INCLUSION),
+    ("REFINE_SIDE_SPLIT", REFINE_SIDE_SPLIT),
     ("SECANT_FREE_TURNS", SECANT_FREE_TURNS),
     ("MAX_REFINE_TURNS", MAX_REFINE_TURNS),
     ("MAX_CELLS_PER_PRIMITIVE", MAX_CELLS_PER_PRIMITIVE),

@@ -268,8 +268,9 @@ struct MarchArgs {
     #[arg(long, value_name = "K")]
     growth: Option<f64>,
     /// How a crossing is narrowed to the refinement tolerance (default:
-    /// the scene's marching.refine, else secant; bisection reproduces the
-    /// figures measured before secant refinement).
+    /// the scene's marching.refine, else inclusion: the inclusion methods
+    /// fold their own bound over the bracket, the others use secant;
+    /// secant and bisection reproduce the figures measured before).
     #[arg(long, value_enum)]
     refine: Option<isomarch::settings::Refinement>,
     /// March the first crossing only, as if the scene had no

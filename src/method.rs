@@ -40,6 +40,11 @@ pub enum Method {
     /// distance (src/field/inversion.rs). Not conservative: measured by its
     /// miss rate, not held to the no-missed-crossing tests.
     FieldInversion,
+    /// Field inversion as dynamol runs it: at most 32 steps, a hit where the
+    /// inverted distance g falls below 0.0125 reference radii (no
+    /// refinement), and out of steps the point of smallest g taken as the
+    /// hit. Not conservative.
+    FieldInversionDynamol,
 }
 
 impl Method {
@@ -57,12 +62,13 @@ impl Method {
         Method::QuadraticRelaxedT0,
         Method::QuadraticRelaxedMax,
         Method::FieldInversion,
+        Method::FieldInversionDynamol,
     ];
 
     /// The methods that never step over a crossing (up to the minimum step
     /// and f32): those the no-missed-crossing tests hold to it. Field
-    /// inversion is not among them.
-    pub const CONSERVATIVE: &'static [Method] = Method::ALL.split_at(Method::ALL.len() - 1).0;
+    /// inversion, either way, is not among them.
+    pub const CONSERVATIVE: &'static [Method] = Method::ALL.split_at(Method::ALL.len() - 2).0;
 
     pub fn name(self) -> &'static str {
         match self {
@@ -77,6 +83,7 @@ impl Method {
             Method::QuadraticRelaxedT0 => "quadratic-relaxed-t0",
             Method::QuadraticRelaxedMax => "quadratic-relaxed-max",
             Method::FieldInversion => "field-inversion",
+            Method::FieldInversionDynamol => "field-inversion-dynamol",
         }
     }
 
@@ -106,7 +113,20 @@ impl Method {
             Method::QuadraticRelaxedT0 => layout::METHOD_QUADRATIC_RELAXED_T0,
             Method::QuadraticRelaxedMax => layout::METHOD_QUADRATIC_RELAXED_MAX,
             Method::FieldInversion => layout::METHOD_FIELD_INVERSION,
+            Method::FieldInversionDynamol => layout::METHOD_FIELD_INVERSION_DYNAMOL,
         }
+    }
+
+    /// Whether the method marches the inverted Gaussian density (field
+    /// inversion, either hit rule): it needs one sum of like Gaussians.
+    pub fn inverts(self) -> bool {
+        matches!(self, Method::FieldInversion | Method::FieldInversionDynamol)
+    }
+
+    /// Whether the method has an inclusion bound (Taylor, bottom-up): the
+    /// GPU's TWO_SIDED methods, which refine with it.
+    pub fn has_bound(self) -> bool {
+        !matches!(self, Method::Sphere | Method::Segment | Method::Raa | Method::LinearBisection) && !self.inverts()
     }
 
     /// Whether the method never steps over a crossing (see `CONSERVATIVE`).
@@ -178,8 +198,9 @@ mod tests {
 
     #[test]
     fn every_method_but_field_inversion_is_conservative() {
-        let others: Vec<Method> = Method::ALL.iter().copied().filter(|&m| m != Method::FieldInversion).collect();
+        let others: Vec<Method> = Method::ALL.iter().copied().filter(|&m| !m.inverts()).collect();
         assert_eq!(others, Method::CONSERVATIVE);
         assert!(!Method::FieldInversion.conservative());
+        assert!(!Method::FieldInversionDynamol.conservative());
     }
 }

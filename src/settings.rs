@@ -3,7 +3,7 @@
 //! mirrors the GPU with them) and the renderer (which uploads them). It
 //! depends on nothing else in the crate but the GPU layout's constants.
 
-use crate::layout::{MAX_REFINE_TURNS, REFINE_BISECTION, REFINE_SECANT, SECANT_FREE_TURNS, SECANT_STRADDLE};
+use crate::layout::{MAX_REFINE_TURNS, REFINE_BISECTION, REFINE_INCLUSION, REFINE_SECANT, REFINE_SIDE_SPLIT, SECANT_FREE_TURNS, SECANT_STRADDLE};
 
 /// Fraction of the iso value below which a Gaussian kernel counts as zero
 /// for bounding the scene (the kernel itself is never truncated).
@@ -84,19 +84,26 @@ impl Default for QuadSettings {
 
 /// How a crossing that the marcher has bracketed, between its last point
 /// outside and the first inside, is narrowed to the refinement tolerance.
-/// Either way the bracket always holds the sign change, the crossing is
+/// Every way the bracket always holds the sign change, the crossing is
 /// reported at the bracket's end past it (never early), and the result is
 /// within the tolerance; they differ in how many field evaluations that
 /// takes (docs/refinement.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum Refinement {
+    /// The inclusion methods (Taylor, bottom-up) fold their bound over the
+    /// bracket: f < 0 up to the upper bound's root and f >= 0 at the lower
+    /// one's, so both ends move at once, and the quadratic forms close a
+    /// bracket of a step in one or two turns. The methods without a bound
+    /// (sphere, segment, field inversion, the bisection baselines) refine
+    /// by secant.
+    #[default]
+    Inclusion,
     /// Illinois regula falsi from the field values the marcher already has
     /// at both ends, each point placed a quarter tolerance past the
     /// estimate so that consecutive points straddle the crossing and the
     /// bracket closes from both sides; every other turn a bisection after
     /// four turns, so it never takes more than twice bisection's turns
     /// plus four. About 3 evaluations per crossing on the protocol scenes.
-    #[default]
     Secant,
     /// Halving the bracket (the protocol's figures before secant refinement).
     Bisection,
@@ -105,6 +112,7 @@ pub enum Refinement {
 impl Refinement {
     pub fn name(self) -> &'static str {
         match self {
+            Refinement::Inclusion => "inclusion",
             Refinement::Secant => "secant",
             Refinement::Bisection => "bisection",
         }
@@ -112,12 +120,13 @@ impl Refinement {
 
     /// The inverse of [`Refinement::name`].
     pub fn from_name(name: &str) -> Option<Refinement> {
-        [Refinement::Secant, Refinement::Bisection].into_iter().find(|r| r.name() == name)
+        [Refinement::Inclusion, Refinement::Secant, Refinement::Bisection].into_iter().find(|r| r.name() == name)
     }
 
     /// Its value in the shaders (`SC_REFINE`).
     pub fn shader_id(self) -> u32 {
         match self {
+            Refinement::Inclusion => REFINE_INCLUSION,
             Refinement::Secant => REFINE_SECANT,
             Refinement::Bisection => REFINE_BISECTION,
         }
@@ -156,7 +165,7 @@ impl Bracket {
         if self.turns >= MAX_REFINE_TURNS || !(w > tolerance) || !(mid > self.a && mid < self.b) {
             return None;
         }
-        let interpolate = mode == Refinement::Secant
+        let interpolate = mode != Refinement::Bisection
             && self.ga < 0.0
             && (self.turns < SECANT_FREE_TURNS || self.turns % 2 == 0);
         if !interpolate {
@@ -171,6 +180,35 @@ impl Bracket {
         };
         x = x.clamp(self.a + margin, self.b - margin);
         Some(if x > self.a && x < self.b { x } else { mid })
+    }
+
+    /// Inclusion refinement: where the next turn folds the bound from
+    /// (over `[x, b]`), or `None` when the bracket is within `tolerance`.
+    /// The GPU's `inclusion_next`.
+    pub fn next_inclusion(&self, tolerance: f64) -> Option<f64> {
+        let w = self.b - self.a;
+        let mid = self.a + 0.5 * w;
+        if self.turns >= MAX_REFINE_TURNS || !(w > tolerance) || !(mid > self.a && mid < self.b) {
+            return None;
+        }
+        Some(if self.side == REFINE_SIDE_SPLIT { mid } else { self.a })
+    }
+
+    /// Takes the fold from `x` (see [`Bracket::next_inclusion`]): `g` at
+    /// `x`, the upper bound's first root `up` and the lower bound's
+    /// `cross` (infinite where it stays negative), both from `x`.
+    pub fn update_inclusion(&mut self, x: f64, g: f64, up: f64, cross: f64) {
+        let w = self.b - self.a;
+        if g >= 0.0 {
+            self.b = x;
+            self.side = 2;
+        } else {
+            self.a = (x + up).min(self.b);
+            self.b = self.b.min(x + cross);
+            self.side = if self.b - self.a > 0.5 * w { REFINE_SIDE_SPLIT } else { 1 };
+        }
+        self.ga = 0.0;
+        self.turns += 1;
     }
 
     /// Takes `g(x)` at the point [`Bracket::next`] gave.

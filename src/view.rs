@@ -177,7 +177,7 @@ impl Input {
     /// baselines find only a first entering crossing: opaque only; field
     /// inversion needs a molecule-like scene).
     fn usable(&self, m: Method) -> bool {
-        !(self.transparency && matches!(m, Method::LinearBisection | Method::Raa)) && (m != Method::FieldInversion || self.invertible)
+        !(self.transparency && matches!(m, Method::LinearBisection | Method::Raa)) && (!m.inverts() || self.invertible)
     }
 
     /// The next usable method after the current one, in `Method::ALL` order.

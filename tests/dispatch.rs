@@ -40,7 +40,7 @@ fn an_unknown_primitive_kind_poisons_every_evaluation_with_nan() {
         let b = renderer.probe_bounds(method, MarchOptions::for_scene(&s), &queries).unwrap()[0];
         assert!(b.lo[0].is_nan(), "{method}: an unknown kind gave the value {b:?}, not NaN");
         match method {
-            Method::Sphere | Method::FieldInversion => assert!(b.hi[..3].iter().all(|x| x.is_nan()), "{method}: gradient {b:?}"),
+            Method::Sphere | Method::FieldInversion | Method::FieldInversionDynamol => assert!(b.hi[..3].iter().all(|x| x.is_nan()), "{method}: gradient {b:?}"),
             Method::Segment => assert!(b.hi[1].is_nan(), "{method}: Lipschitz bound {b:?}"),
             Method::Raa => assert!(b.hi[0].is_nan(), "{method}: range {b:?}"),
             _ => assert!(b.lo[1].is_nan() && b.hi[1].is_nan(), "{method}: slopes {b:?}"),

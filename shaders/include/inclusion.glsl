@@ -525,6 +525,12 @@ float upper_root(Bound b) {
     return start >= 0.0 ? 0.0 : first_root(-start, b.a_hi, b.b_hi);
 }
 
+// From outside (f < 0): the first root of the lower bound, a point where
+// f >= 0 (INFINITY where the lower bound stays negative).
+float lower_root(Bound b) {
+    return b.v >= 0.0 ? 0.0 : first_root(-b.v, b.a_lo, b.b_lo);
+}
+
 // Algorithm 1's next root: of the upper bound outside (f < 0), of the lower
 // bound inside (transparent rendering marches both).
 float next_root(Bound b) {

@@ -108,7 +108,15 @@ void on_crossing(vec3 o, vec3 u, float tc, bool entering, inout March m) {
 struct StepEval {
     float f;
     float step;
+    float cross;    // from t0, a point where f >= 0 is proven (INFINITY: none)
 };
+
+// Opaque first-crossing marches of the inclusion methods take the lower
+// bound too: where it reaches 0 inside its validity interval, f >= 0
+// there, so the first crossing is bracketed by the two bounds' roots
+// without a step to it (docs/refinement.md, "Inclusion refinement").
+const bool TWO_SIDED = SC_TRANSPARENT == 0u && SC_SECONDARY == 0u && SC_METHOD != METHOD_SPHERE && SC_METHOD != METHOD_SEGMENT
+                       && SC_METHOD != METHOD_FIELD_INVERSION && SC_METHOD != METHOD_FIELD_INVERSION_DYNAMOL && SC_METHOD != METHOD_RAA && SC_METHOD != METHOD_LINEAR_BISECTION;
 
 // The fold of one turn on [t0, t1]: f at t0 and, for a step, the step to
 // the first root of the relevant bound on [t0, t1] (at most t1 - t0).
@@ -116,21 +124,27 @@ StepEval step_eval(vec3 o, vec3 u, float t0, float t1) {
     float len = t1 - t0;
     if (SC_METHOD == METHOD_SPHERE) {
         float f = field(o + t0 * u);
-        return StepEval(f, abs(f) / globals.march.w);                      // Eq. 10
-    } else if (SC_METHOD == METHOD_FIELD_INVERSION) {
+        return StepEval(f, abs(f) / globals.march.w, INFINITY);            // Eq. 10
+    } else if (SC_METHOD == METHOD_FIELD_INVERSION || SC_METHOD == METHOD_FIELD_INVERSION_DYNAMOL) {
         float f;
         float step = inversion_step(o, u, t0, f);            // not conservative (inversion.glsl)
-        return StepEval(f, step);
+        return StepEval(f, step, INFINITY);
     } else if (SC_METHOD == METHOD_SEGMENT) {
         float lambda;
         float f = field_and_lipschitz(o, u, t0, t1, lambda);   // Eq. 11, docs/benchmark-protocol.md
-        return StepEval(f, lambda > 0.0 ? min(abs(f) / lambda, len) : len);
+        return StepEval(f, lambda > 0.0 ? min(abs(f) / lambda, len) : len, INFINITY);
     }
     Bound b = method_bound(o, u, t0, t1);   // may shorten t1
     // Opaque marching steps only from outside (f < 0; f >= 0 is a hit
-    // below), so only the upper bound's root is needed, and the compiler
-    // drops the lower bounds' arithmetic altogether.
-    return StepEval(b.v, min(SC_TRANSPARENT != 0u || SC_SECONDARY != 0u ? next_root(b) : upper_root(b), t1 - t0));
+    // below), so the upper bound gives the step and the lower one the
+    // point past which the crossing cannot lie.
+    float valid = t1 - t0;
+    float cross = INFINITY;
+    if (TWO_SIDED) {
+        float r = lower_root(b);
+        if (r <= valid) cross = r;
+    }
+    return StepEval(b.v, min(SC_TRANSPARENT != 0u || SC_SECONDARY != 0u ? next_root(b) : upper_root(b), valid), cross);
 }
 
 // The rest of one iteration of Algorithm 1, from its fold on [m.t, t_end]:
@@ -140,6 +154,21 @@ void step_apply(vec3 o, vec3 u, float tmax, StepEval e, inout March m) {
     m.steps += 1u;
     float f = e.f;
     float step = e.step;
+    if (SC_METHOD == METHOD_FIELD_INVERSION_DYNAMOL) {
+        // dynamol's hit rule: the inverted distance g (the step is ω g
+        // outside) below DYNAMOL_EPSILON reference radii, or inside, is a
+        // hit here, unrefined; the point of smallest g so far is kept in
+        // (rb, gb) for a ray that runs out of steps.
+        float g = f >= 0.0 ? -1.0 : step / INVERSION_OVER_RELAXATION;
+        if (g < DYNAMOL_EPSILON * globals.inversion.x) {
+            m.flags |= FLAG_HIT | FLAG_DONE;
+            return;
+        }
+        if (m.steps == 1u || g < m.gb) {
+            m.rb = m.t;
+            m.gb = g;
+        }
+    }
     // A secondary ray (reflected or refracted) starts just past a surface,
     // on the side its sign at the start says, and looks for the first
     // sign change from there.
@@ -160,6 +189,13 @@ void step_apply(vec3 o, vec3 u, float tmax, StepEval e, inout March m) {
             on_crossing(o, u, m.t, !inside, m);
         }
         m.flags ^= FLAG_INSIDE;
+    }
+    if (TWO_SIDED && e.cross < INFINITY) {
+        // f < 0 up to the upper bound's root, f >= 0 at the lower one's.
+        float rb = m.t + e.cross;
+        m.flags |= FLAG_HIT;
+        begin_refinement(min(m.t + step, rb), 0.0, rb, 0.0, true, m);
+        return;
     }
     if (m.t >= tmax) {
         m.flags |= (m.flags & FLAG_REFINING) != 0u ? FLAG_ENDED : FLAG_DONE;
@@ -189,7 +225,7 @@ bool refine_next(March m, out float x) {
     float tol = globals.march.z;
     x = m.ra + 0.5 * w;
     if (!(m.refine_turns < MAX_REFINE_TURNS && w > tol && x > m.ra && x < m.rb)) return false;
-    if (SC_REFINE == REFINE_SECANT && m.ga < 0.0 && (m.refine_turns < SECANT_FREE_TURNS || (m.refine_turns & 1u) == 0u)) {
+    if (SC_REFINE != REFINE_BISECTION && m.ga < 0.0 && (m.refine_turns < SECANT_FREE_TURNS || (m.refine_turns & 1u) == 0u)) {
         float margin = SECANT_STRADDLE * tol;
         float s = m.ra + w * (m.ga / (m.ga - m.gb));
         s += m.refine_side == 1u ? margin : (m.refine_side == 2u ? -margin : 0.0);
@@ -212,6 +248,36 @@ void refine_update(float x, float f, inout March m) {
         m.rb = x;
         m.gb = g;
         m.refine_side = 2u;
+    }
+    m.refine_turns += 1u;
+}
+
+// Inclusion refinement (SC_REFINE == REFINE_INCLUSION, TWO_SIDED
+// marches): the turn folds the method's bound over [x, rb], x the
+// bracket's start, or its middle after a turn that did not halve it.
+// f(x) >= 0 moves rb to x; else f < 0 up to the upper bound's root and
+// f >= 0 at the lower bound's, so both ends move. Mirrored in f64 by
+// settings::Bracket::update_inclusion.
+const bool INCLUSION_REFINE = TWO_SIDED && SC_REFINE == REFINE_INCLUSION;
+
+// The point the next inclusion turn folds from, or false when the bracket
+// is within the tolerance (or no float lies strictly inside it).
+bool inclusion_next(March m, out float x) {
+    float w = m.rb - m.ra;
+    float mid = m.ra + 0.5 * w;
+    x = m.refine_side == REFINE_SIDE_SPLIT ? mid : m.ra;
+    return m.refine_turns < MAX_REFINE_TURNS && w > globals.march.z && mid > m.ra && mid < m.rb;
+}
+
+void inclusion_update(float x, StepEval e, inout March m) {
+    float w = m.rb - m.ra;
+    if (e.f >= 0.0) {
+        m.rb = x;
+        m.refine_side = 2u;
+    } else {
+        m.ra = min(x + e.step, m.rb);
+        m.rb = min(m.rb, x + e.cross);
+        m.refine_side = m.rb - m.ra > 0.5 * w ? REFINE_SIDE_SPLIT : 1u;
     }
     m.refine_turns += 1u;
 }
@@ -254,14 +320,25 @@ void algorithm1_turn(vec3 o, vec3 u, float tmax, inout March m) {
     bool refining = (m.flags & FLAG_REFINING) != 0u;
     float t0 = m.t;
     float t1 = min(m.t + m.window, tmax);
-    if (refining) {
+    if (refining && INCLUSION_REFINE) {
+        if (!inclusion_next(m, t0)) {
+            refine_finish(o, u, m);
+            return;
+        }
+        t1 = m.rb;
+    } else if (refining) {
         if (!refine_next(m, t0)) {
             refine_finish(o, u, m);
             return;
         }
-        t1 = SC_METHOD == METHOD_SEGMENT || SC_METHOD == METHOD_SPHERE || SC_METHOD == METHOD_FIELD_INVERSION ? t0 : t0 + globals.march.z;
-    } else if (m.steps >= globals.sizes.w) {
+        t1 = SC_METHOD == METHOD_SEGMENT || SC_METHOD == METHOD_SPHERE || SC_METHOD == METHOD_FIELD_INVERSION || SC_METHOD == METHOD_FIELD_INVERSION_DYNAMOL ? t0 : t0 + globals.march.z;
+    } else if (m.steps >= (SC_METHOD == METHOD_FIELD_INVERSION_DYNAMOL ? min(globals.sizes.w, DYNAMOL_STEPS) : globals.sizes.w)) {
         m.flags |= FLAG_DONE | FLAG_OUT_OF_STEPS;
+        // dynamol out of steps: the closest point seen is the hit.
+        if (SC_METHOD == METHOD_FIELD_INVERSION_DYNAMOL && m.steps > 0u) {
+            m.t = m.rb;
+            m.flags |= FLAG_HIT;
+        }
         return;
     } else if (SC_INDEX != 0u && globals.tuning.w != 0.0) {
         // Across empty cells in one move (f = -iso there): no step, no
@@ -284,10 +361,14 @@ void algorithm1_turn(vec3 o, vec3 u, float tmax, inout March m) {
     StepEval e = step_eval(o, u, t0, t1);
     if (refining) {
         m.refine_evals += g_evals - before;
-        refine_update(t0, e.f, m);
+        if (INCLUSION_REFINE) inclusion_update(t0, e, m); else refine_update(t0, e.f, m);
     } else {
         step_apply(o, u, tmax, e, m);
     }
+    // A bracket the bounds closed ends in this turn, not with a turn of
+    // its own.
+    float x;
+    if (INCLUSION_REFINE && (m.flags & FLAG_REFINING) != 0u && !inclusion_next(m, x)) refine_finish(o, u, m);
 }
 
 // Leaves the current bisection node for the next one in front-to-back

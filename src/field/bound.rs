@@ -110,6 +110,13 @@ pub fn first_root(g: f64, a: f64, b: f64) -> f64 {
     (sd - a) / (2.0 * b)
 }
 
+/// From outside (`v < 0`): the lower bound's first root, a point where
+/// the field is proven >= 0 (infinite where the lower bound stays
+/// negative). The GPU's `lower_root`.
+pub fn lower_root(b: &Bound) -> f64 {
+    if b.v >= 0.0 { 0.0 } else { first_root(-b.v, b.a_lo, b.b_lo) }
+}
+
 /// Where a march from `t0` may step: the first root of the upper bound when
 /// outside (`v < 0`), of the lower bound when inside (Algorithm 1). A
 /// relaxed upper bound that starts at or above 0 allows no step.

@@ -262,6 +262,6 @@ pub fn field_bound(field: &Field, method: Method, quad: QuadSettings, o: DVec3, 
             let validity_floor = quad.validity_floor(field.iso);
             field_quadratic(field, o, u, t0, t1, QuadOptions { exp_upper, extension: quad.extension, validity_floor })
         }
-        Method::Sphere | Method::Segment | Method::Raa | Method::FieldInversion => return None,
+        Method::Sphere | Method::Segment | Method::Raa | Method::FieldInversion | Method::FieldInversionDynamol => return None,
     })
 }

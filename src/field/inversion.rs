@@ -25,10 +25,12 @@
 //! - **r_ref** is the scene's smallest radius, so that g never exceeds the
 //!   distance to a lone atom's surface. dynamol steps by the normalised
 //!   `sqrt(-ln F / s) - 1` itself (radius 1 in its units, ångström).
-//! - **The hit rule** is every method's here: a crossing where f >= 0,
-//!   refined by bisection, the minimum step and the step budget as for the
-//!   others. dynamol stops where g < 0.0125 and, out of its 32 steps,
-//!   takes the point of smallest g as a hit.
+//! - **The hit rule** of `field-inversion` is every method's: a crossing
+//!   where f >= 0, refined, the minimum step and the step budget as for the
+//!   others. `field-inversion-dynamol` takes dynamol's: a hit, unrefined,
+//!   where g < 0.0125 r_ref (or f >= 0), at most 32 steps, and out of steps
+//!   the point of smallest g taken as the hit (marchers.glsl `step_apply`,
+//!   mirrored in `field::march`).
 //! - **Where no atom reaches** (the spatial index clips each Gaussian
 //!   where it falls below its group's threshold τ, [`clip::threshold`]),
 //!   the density is taken as τ, so g stays the distance to a lone atom

@@ -4,9 +4,10 @@
 
 use glam::DVec3;
 
-use super::bound::next_root;
+use super::bound::{lower_root, next_root};
 use super::fold::{field_bound, field_linear, field_raa};
-use super::inversion::Inversion;
+use super::inversion::{Inversion, OVER_RELAXATION};
+use crate::layout::{DYNAMOL_EPSILON, DYNAMOL_STEPS};
 use super::Field;
 use super::quad::QuadSettings;
 use crate::method::Method;
@@ -54,7 +55,7 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
     }
     // A field that field inversion cannot march (not one sum of like Gaussians)
     // takes no step; the GPU refuses it (Renderer::march).
-    let inversion = if method == Method::FieldInversion {
+    let inversion = if method.inverts() {
         match Inversion::of_field(field) {
             Ok(inv) => Some(inv),
             Err(_) => return r,
@@ -65,14 +66,28 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
     let (mut t, mut t_prev, mut window) = (t0, t0, t1 - t0);
     let mut f_prev = 0.0;
     let mut inside = false;
+    // An opaque march of an inclusion method takes the lower bound too
+    // (the GPU's TWO_SIDED).
+    let two_sided = !s.transparent && method.has_bound();
+    // dynamol's field inversion: its budget, its hit rule, and the point of
+    // smallest inverted distance g so far (the GPU's step_apply).
+    let dynamol = method == Method::FieldInversionDynamol;
+    let max_steps = if dynamol { s.max_steps.min(DYNAMOL_STEPS) } else { s.max_steps };
+    let mut closest = (t0, f64::INFINITY);
+    let bounded = |a: f64, b: f64| refine_inclusion(field, method, o, u, a, b, s);
     loop {
-        if r.steps >= s.max_steps {
+        if r.steps >= max_steps {
             r.out_of_steps = true;
+            if dynamol && r.steps > 0 {
+                r.hit = Some(closest.0);
+                r.crossings.push(closest.0);
+            }
             return r;
         }
         r.steps += 1;
         let t_end = (t + window).min(t1);
         let len = t_end - t;
+        let mut cross = f64::INFINITY;
         let (f, step) = match method {
             Method::Sphere => {
                 let f = at(t);
@@ -83,7 +98,7 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
                 let lambda = field.segment_lipschitz(o, u, t, t_end);
                 (f, if lambda > 0.0 { (f.abs() / lambda).min(len) } else { len })
             }
-            Method::FieldInversion => {
+            Method::FieldInversion | Method::FieldInversionDynamol => {
                 let f = at(t);
                 (f, inversion.map_or(0.0, |inv| inv.step(f, field.iso)))
             }
@@ -92,19 +107,47 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
                 if len > 0.0 {
                     r.kept += (b.t_valid - t) / len;
                 }
+                if two_sided && lower_root(&b) <= b.t_valid - t {
+                    cross = lower_root(&b);
+                }
                 // Up to where the bound is valid (Section 4.2).
                 (b.v, next_root(&b).min(b.t_valid - t))
             }
         };
+        if let (true, Some(inv)) = (dynamol, inversion) {
+            let g = if f >= 0.0 { -1.0 } else { step / OVER_RELAXATION };
+            if g < f64::from(DYNAMOL_EPSILON) * inv.r_ref {
+                r.hit = Some(t);
+                r.crossings.push(t);
+                return r;
+            }
+            if g < closest.1 {
+                closest = (t, g);
+            }
+        }
         // A crossing: f >= 0 entering, f <= 0 again leaving.
         if if inside { f <= 0.0 } else { f >= 0.0 } {
-            let tc = if r.steps > 1 { refine_past(&at, t_prev, f_prev, t, f, !inside, s) } else { t };
+            let tc = if r.steps == 1 {
+                t
+            } else if two_sided && s.refine == Refinement::Inclusion {
+                bounded(t_prev, t)
+            } else {
+                refine_past(&at, t_prev, f_prev, t, f, !inside, s)
+            };
             r.hit = r.hit.or(Some(tc));
             r.crossings.push(tc);
             if !s.transparent {
                 return r;
             }
             inside = !inside;
+        }
+        if cross < f64::INFINITY {
+            // f < 0 up to the upper bound's root, f >= 0 at the lower one's.
+            let (a, b) = ((t + step).min(t + cross), t + cross);
+            let tc = if s.refine == Refinement::Inclusion { bounded(a, b) } else { refine_past(&at, a, 0.0, b, 0.0, true, s) };
+            r.hit = Some(tc);
+            r.crossings.push(tc);
+            return r;
         }
         if t >= t1 {
             return r;
@@ -130,6 +173,19 @@ fn refine_past(at: &impl Fn(f64) -> f64, a: f64, fa: f64, b: f64, fb: f64, enter
     let mut bracket = Bracket::new(a, sign * fa, b, sign * fb);
     while let Some(x) = bracket.next(s.refine, s.tolerance) {
         bracket.update(x, sign * at(x));
+    }
+    bracket.b
+}
+
+/// Inclusion refinement of an entering crossing in `(a, b]`: the GPU's
+/// `inclusion_next` and `inclusion_update` turns.
+fn refine_inclusion(field: &Field, method: Method, o: DVec3, u: DVec3, a: f64, b: f64, s: MarchSettings) -> f64 {
+    let mut bracket = Bracket::new(a, 0.0, b, 0.0);
+    while let Some(x) = bracket.next_inclusion(s.tolerance) {
+        let bd = field_bound(field, method, s.quad, o, u, x, bracket.b).expect("an inclusion method");
+        let valid = bd.t_valid - x;
+        let cross = lower_root(&bd);
+        bracket.update_inclusion(x, bd.v, next_root(&bd).min(valid), if cross <= valid { cross } else { f64::INFINITY });
     }
     bracket.b
 }

@@ -674,7 +674,7 @@ impl Renderer {
         let deadline = Instant::now() + self.timeout;
         let handles = self.pipeline(EntryPoint::March, method, &options)?;
         self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad, self.grid.as_ref())])?;
-        if method == Method::FieldInversion {
+        if method.inverts() {
             Inversion::of_field(&Field::new(&self.scene)).map_err(|e| anyhow::anyhow!("{}: {e}", self.scene.source))?;
         }
         if (options.transparent || options.secondary) && matches!(method, Method::LinearBisection | Method::Raa) {

@@ -176,8 +176,10 @@ pub struct MarchingFile {
     /// "significant" (peak along the ray at least 1e-3·iso) or "every".
     #[serde(default = "default_validity")]
     pub validity: String,
-    /// How a bracketed crossing is narrowed to the tolerance: "secant"
-    /// (the default) or "bisection" (the protocol's figures before it).
+    /// How a bracketed crossing is narrowed to the tolerance: "inclusion"
+    /// (the default: the inclusion methods fold their bound over the
+    /// bracket, the others use secant), "secant", or "bisection" (the
+    /// protocol's figures before secant refinement).
     #[serde(default)]
     pub refine: Option<String>,
 }
