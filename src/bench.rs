@@ -16,7 +16,7 @@ use crate::gpu::Context;
 use crate::layout::{FLAG_HIT, GpuResult, GpuRay};
 use crate::method::Method;
 use crate::output::MarchStats;
-use crate::render::rays::{Ray, protocol_rays};
+use crate::render::rays::{Ray, camera_rays, protocol_rays};
 use crate::render::index::IndexStats;
 use crate::render::{MarchOptions, Renderer};
 use crate::scene::{Kernel, Primitive, Scene};
@@ -122,6 +122,9 @@ pub struct BenchReport {
     pub device: String,
     pub rays: usize,
     pub seed: u64,
+    /// The frame whose camera rays were sampled (`bench --camera`); `null`
+    /// for the protocol's rays.
+    pub camera: Option<(u32, u32)>,
     /// Times the methods ran, interleaved (method after method, then again).
     pub repeats: usize,
     pub min_step: f64,
@@ -267,6 +270,9 @@ pub struct Plan<'a> {
     /// The whole list of rows runs this many times, interleaved, so that a
     /// slow spell of the machine hits every method alike.
     pub repeats: usize,
+    /// Sample the scene camera's pixel rays at this resolution instead of
+    /// the protocol's rays.
+    pub camera: Option<(u32, u32)>,
 }
 
 /// Runs every method on the same protocol rays and compares them. Each
@@ -275,11 +281,14 @@ pub struct Plan<'a> {
 /// accuracy come from the first repeat (marching is deterministic: the
 /// later repeats only time it again).
 pub fn run(ctx: &Arc<Context>, scene: &Scene, plan: &Plan, timeout: std::time::Duration) -> Result<BenchReport> {
-    let Plan { methods, variants, rays, seed, repeats } = *plan;
+    let Plan { methods, variants, rays, seed, repeats, camera } = *plan;
     anyhow::ensure!(repeats >= 1, "the benchmark must run at least once");
     // The GPU's coordinates centred on the box the rays aim at (f32).
     let scene = &scene.recentred(scene.bounds.center());
-    let ray_set = protocol_rays(&scene.bounds, rays, seed);
+    let ray_set = match camera {
+        None => protocol_rays(&scene.bounds, rays, seed),
+        Some((w, h)) => camera_sample(scene, w, h, rays, seed)?,
+    };
     let transparent = scene.transparency.is_some();
     let reference = reference_crossings(scene, &ray_set, !transparent, true);
     let mut renderer = Renderer::new(ctx, scene)?;
@@ -323,6 +332,7 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, plan: &Plan, timeout: std::time::D
         device: ctx.info.name.clone(),
         rays,
         seed,
+        camera,
         repeats,
         min_step: scene.marching.min_step,
         max_steps: scene.marching.max_steps,
@@ -438,11 +448,30 @@ fn validity_kept(scene: &Scene, method: Method, quad: QuadSettings, rays: &[GpuR
     kept / f64::from(steps.max(1))
 }
 
+/// `count` of the camera's pixel rays for a `width` x `height` frame,
+/// chosen at random without repeats (seeded), in pixel order.
+fn camera_sample(scene: &Scene, width: u32, height: u32, count: usize, seed: u64) -> Result<Vec<GpuRay>> {
+    use rand::SeedableRng;
+    let (all, pixels) = camera_rays(&scene.camera, width, height, &scene.bounds);
+    let mut rays: Vec<(u32, GpuRay)> = all.into_iter().zip(pixels).filter_map(|(r, p)| p.map(|p| (p, r))).collect();
+    anyhow::ensure!(count <= rays.len(), "--camera: {count} rays asked of a {width}x{height} frame, which has {}", rays.len());
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+    let mut keep = vec![false; rays.len()];
+    for i in rand::seq::index::sample(&mut rng, rays.len(), count) {
+        keep[i] = true;
+    }
+    let mut k = keep.into_iter();
+    rays.retain(|_| k.next().unwrap_or(false));
+    rays.sort_by_key(|&(p, _)| p);
+    Ok(rays.into_iter().map(|(_, r)| r).collect())
+}
+
 /// The report as a markdown table.
 pub fn markdown(report: &BenchReport) -> String {
     let base = report.methods.first().map_or("-", |m| m.method.as_str());
+    let kind = report.camera.map_or(String::new(), |(w, h)| format!(" of the camera's {w}x{h} frame"));
     let mut s = format!(
-        "scene `{}`, {} rays (seed {}), minimum step {}, maximum steps {}, device {}; reference hit rate {:.4}\n\n",
+        "scene `{}`, {} rays{kind} (seed {}), minimum step {}, maximum steps {}, device {}; reference hit rate {:.4}\n\n",
         report.scene, report.rays, report.seed, report.min_step, report.max_steps, report.device, report.reference_hit_rate
     );
     if report.repeats > 1 {

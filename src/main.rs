@@ -512,6 +512,11 @@ struct BenchArgs {
     /// Seed of the ray set.
     #[arg(long, default_value_t = bench::DEFAULT_SEED)]
     seed: u64,
+    /// Instead of the protocol's rays, a seeded sample of `--rays` of the
+    /// scene camera's pixel rays at its resolution (or `--size` WxH given
+    /// here), without repeats: the rays a rendered frame marches.
+    #[arg(long, value_parser = parse_size, value_name = "WxH", num_args = 0..=1, default_missing_value = "0x0")]
+    camera: Option<(u32, u32)>,
     /// Run the whole list of methods this many times, interleaved, and
     /// report each time as the median over repeats with its range, and
     /// each time ratio as the median of the ratios within each repeat
@@ -964,7 +969,8 @@ fn bench(args: BenchArgs) -> Result<()> {
     if args.repeat == 0 {
         bail!("--repeat must be at least 1");
     }
-    let plan = bench::Plan { methods: &methods, variants: &variants, rays, seed: args.seed, repeats: args.repeat };
+    let camera = args.camera.map(|(w, h)| if w == 0 { (scene.camera.width, scene.camera.height) } else { (w, h) });
+    let plan = bench::Plan { methods: &methods, variants: &variants, rays, seed: args.seed, repeats: args.repeat, camera };
     let report = bench::run(&gpu.ctx, &scene, &plan, gpu.timeout)?;
     print!("{}", bench::markdown(&report));
     if let Some(path) = args.json {

@@ -218,3 +218,39 @@ fn batch_frames_turn_the_camera_around_the_molecule() {
     let b = image::open(dir.join("f_1.png")).unwrap().to_rgb8();
     assert_ne!(a, b, "a quarter turn later the frame is the same");
 }
+
+/// On a sample of a molecule's camera rays (`bench --camera`), every
+/// conservative Algorithm 1 method and the bisection baselines find every
+/// crossing of the f64 reference and no other, within the match window;
+/// field inversion with the conservative hit rule misses at most 1% (its
+/// steps are not distance bounds), and dynamol's rule reports its rates.
+#[test]
+fn a_molecules_camera_rays_match_the_reference_for_every_conservative_method() {
+    let dir = scratch("mol-camera");
+    let json = dir.join("bench.json");
+    let methods: Vec<&str> = isomarch::Method::ALL.iter().map(|m| m.name()).collect();
+    let out = run(&[
+        "bench", pdb_1a8o().to_str().unwrap(), "--camera", "64x64", "--rays", "1024", "--methods", &methods.join(","),
+        "--json", json.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(report["camera"], serde_json::json!([64, 64]), "{report}");
+    let reference = report["reference_hit_rate"].as_f64().unwrap();
+    assert!(reference > 0.3, "the sample hardly sees the molecule: reference hit rate {reference}");
+    let rows = report["methods"].as_array().unwrap();
+    assert_eq!(rows.len(), methods.len());
+    for row in rows {
+        let name = row["method"].as_str().unwrap();
+        let rate = |f: &str| row[f].as_f64().unwrap_or_else(|| panic!("{name}: no {f}"));
+        let method: isomarch::Method = name.parse().unwrap();
+        if method.conservative() {
+            assert_eq!((rate("miss_rate"), rate("false_hit_rate")), (0.0, 0.0), "{name} on 1A8O's camera rays");
+            assert_eq!(rate("hit_rate"), reference, "{name}");
+        } else if method == isomarch::Method::FieldInversion {
+            assert!(rate("miss_rate") <= 0.01 && rate("false_hit_rate") == 0.0, "{name}: {row}");
+        } else {
+            assert!(rate("miss_rate").is_finite() && rate("false_hit_rate").is_finite(), "{name}: {row}");
+        }
+    }
+}
