@@ -90,10 +90,7 @@ fn compile(
     let (generated, bindings, include_root) = (generated.to_string(), bindings.to_string(), include_dir.to_path_buf());
     options.set_include_callback(move |name, _kind, _from, _depth| {
         if name == "layout.glsl" {
-            return Ok(shaderc::ResolvedInclude {
-                resolved_name: "layout.glsl (generated from src/layout.rs)".into(),
-                content: generated.clone(),
-            });
+            return Ok(shaderc::ResolvedInclude { resolved_name: "layout.glsl (generated from src/layout.rs)".into(), content: generated.clone() });
         }
         if name == "layout_bindings.glsl" {
             return Ok(shaderc::ResolvedInclude {

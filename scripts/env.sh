@@ -18,11 +18,15 @@ ISOMARCH_PACKAGES=(
 # Optional package sets, named in ISOMARCH_WITH (space-separated) by the
 # script that sources this file: `slurm` is a one-node SLURM with its
 # authentication (scripts/slurm-local.sh; the test suite's SLURM test).
+# `lint` is rustfmt and clippy (rustup components; the test suite checks
+# formatting and lints first).
 ISOMARCH_PACKAGES_SLURM=(slurm-wlm munge)
+ISOMARCH_COMPONENTS=()
 for _isomarch_set in ${ISOMARCH_WITH:-}; do
     case "$_isomarch_set" in
         slurm) ISOMARCH_PACKAGES+=("${ISOMARCH_PACKAGES_SLURM[@]}") ;;
-        *) echo "isomarch: ISOMARCH_WITH names an unknown package set $_isomarch_set (known: slurm)" >&2; exit 1 ;;
+        lint) ISOMARCH_COMPONENTS+=(rustfmt clippy) ;;
+        *) echo "isomarch: ISOMARCH_WITH names an unknown package set $_isomarch_set (known: slurm, lint)" >&2; exit 1 ;;
     esac
 done
 
@@ -48,6 +52,19 @@ isomarch_install_packages() {
             export PATH="$HOME/.cargo/bin:$PATH"
         fi
     fi
+    local component
+    for component in ${ISOMARCH_COMPONENTS[@]+"${ISOMARCH_COMPONENTS[@]}"}; do
+        local probe="$component"
+        [ "$component" = rustfmt ] && probe=fmt
+        if ! cargo "$probe" --version >/dev/null 2>&1; then
+            if ! command -v rustup >/dev/null 2>&1; then
+                echo "isomarch: cargo $probe is missing and there is no rustup to add the $component component; install it with your Rust toolchain" >&2
+                exit 1
+            fi
+            echo "isomarch: adding the Rust component $component" >&2
+            rustup component add "$component" >&2
+        fi
+    done
 }
 
 isomarch_install_packages

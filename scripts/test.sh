@@ -3,8 +3,13 @@
 # Usage: bash scripts/test.sh [extra cargo test arguments]
 # The suite includes a SLURM test (tests/slurm.rs), which starts a one-node
 # cluster with scripts/slurm-local.sh: install its packages here too.
-ISOMARCH_WITH="${ISOMARCH_WITH:-} slurm"
+ISOMARCH_WITH="${ISOMARCH_WITH:-} slurm lint"
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 cd "$ISOMARCH_ROOT"
+# Formatting and lints first (rustfmt.toml; allowed lints are justified in
+# Cargo.toml's [lints] or where they are allowed). Clippy checks the
+# release profile, whose build-script outputs (shaderc's) the tests share.
+cargo fmt --check
+cargo clippy --release --locked --all-targets -- -D warnings
 # One profile (release) for tests and runs: shaderc is built once.
 cargo test --release --locked "$@"

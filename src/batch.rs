@@ -216,8 +216,8 @@ pub fn run(
     use anyhow::Context as _;
 
     use crate::output::{FileFormat, shaded_bytes, write_atomic};
-    use crate::render::{MarchOptions, Renderer};
     use crate::render::rays::camera_rays;
+    use crate::render::{MarchOptions, Renderer};
 
     let frames: Vec<u64> = (range.start..range.end).filter(|&f| shard.contains(f)).collect();
     let mut summary = BatchSummary::default();
@@ -287,9 +287,9 @@ pub fn run(
         };
         writeln!(
             log,
-            "{frame},{:.6},{},{},{},{},{:.4},{:.2},{:.5},{},{:.1},{index_ms}",
+            "{frame},{:.6},\"{}\",{},{},{},{:.4},{:.2},{:.5},{},{:.1},{index_ms}",
             frame as f64 / fps,
-            format!("\"{}\"", path.display().to_string().replace('"', "\"\"")),
+            path.display().to_string().replace('"', "\"\""),
             job.width,
             job.height,
             job.method,

@@ -10,16 +10,16 @@ use serde::Serialize;
 
 use crate::field::Field;
 use crate::field::march::{MarchSettings, march};
-use crate::settings::QuadSettings;
 use crate::field::reference::{ReferenceOptions, crossings};
 use crate::gpu::Context;
-use crate::layout::{FLAG_HIT, GpuResult, GpuRay};
+use crate::layout::{FLAG_HIT, GpuRay, GpuResult};
 use crate::method::Method;
 use crate::output::MarchStats;
-use crate::render::rays::{Ray, camera_rays, protocol_rays};
 use crate::render::index::IndexStats;
+use crate::render::rays::{Ray, camera_rays, protocol_rays};
 use crate::render::{MarchOptions, Renderer};
 use crate::scene::{Kernel, Primitive, Scene};
+use crate::settings::QuadSettings;
 use crate::stats::{median, range};
 
 /// docs/benchmark-protocol.md: 1,048,576 rays unless told otherwise.

@@ -242,8 +242,12 @@ pub const CELL_PAD: f32 = 1e-3;
 pub const SKIP_CELLS: u32 = 64;
 
 /// Float constants shared with GLSL, as `(name, value)`.
-pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] =
-    &[("CELL_PAD", CELL_PAD), ("SECANT_STRADDLE", SECANT_STRADDLE), ("INVERSION_OVER_RELAXATION", INVERSION_OVER_RELAXATION), ("DYNAMOL_EPSILON", DYNAMOL_EPSILON)];
+pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] = &[
+    ("CELL_PAD", CELL_PAD),
+    ("SECANT_STRADDLE", SECANT_STRADDLE),
+    ("INVERSION_OVER_RELAXATION", INVERSION_OVER_RELAXATION),
+    ("DYNAMOL_EPSILON", DYNAMOL_EPSILON),
+];
 
 /// Field inversion's over-relaxation ω (src/field/inversion.rs).
 pub const INVERSION_OVER_RELAXATION: f32 = 1.2;

@@ -15,19 +15,24 @@ use std::time::Duration;
 use anyhow::{Context as _, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+use isomarch::bench;
 use isomarch::gpu::{Context, ContextOptions, GpuError, list_devices};
 use isomarch::method::{Method, parse_list};
 use isomarch::output::{self, Aov, FileFormat, png_bytes, write_atomic};
 use isomarch::render::offscreen::{RenderJob, render_frame, render_to_files};
 use isomarch::scene::Scene;
-use isomarch::bench;
 use isomarch::settings::{QuadSettings, ValidityScope};
 
 #[derive(Parser)]
-#[command(name = "isomarch", version, about = "Ray marching of implicit surfaces on Vulkan compute", long_about = "\
+#[command(
+    name = "isomarch",
+    version,
+    about = "Ray marching of implicit surfaces on Vulkan compute",
+    long_about = "\
 Renders implicit surfaces made of point primitives (compact and Gaussian kernels) and planes, summed within groups and \
 combined by max across groups, with the marchers of Aydinlilar & Zanni (2023) running as Vulkan compute shaders. \
-Scene files are RON: see docs/scene-format.md.")]
+Scene files are RON: see docs/scene-format.md."
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -741,7 +746,9 @@ fn render(args: RenderArgs) -> Result<()> {
 fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Scene, size: (u32, u32)) -> Result<()> {
     let RenderArgs { output, batch, .. } = args;
     if args.heatmap.is_some() || !args.aov.is_empty() || args.stats.is_some() || args.aov_output.is_some() || args.steps_max.is_some() {
-        bail!("--frames writes shaded PNGs and a statistics CSV (--csv); --heatmap, --steps-max, --aov, --aov-output and --stats are for single frames");
+        bail!(
+            "--frames writes shaded PNGs and a statistics CSV (--csv); --heatmap, --steps-max, --aov, --aov-output and --stats are for single frames"
+        );
     }
     let fps = check_fps(batch.fps)?;
     let pattern = output.to_string_lossy().into_owned();

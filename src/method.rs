@@ -3,8 +3,8 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::settings::ExpUpper;
 use crate::layout;
+use crate::settings::ExpUpper;
 
 /// A ray-marching method. Each is a specialization of the one march shader.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

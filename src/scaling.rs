@@ -24,12 +24,12 @@ use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::bench::{accuracy, match_window, reference_crossings};
-use crate::output::plot::thousands;
 use crate::generate::{Particles, SPACING};
 use crate::gpu::Context;
 use crate::layout::GpuRay;
 use crate::method::Method;
 use crate::output::MarchStats;
+use crate::output::plot::thousands;
 use crate::output::plot::{plot_err, write_png_svg};
 use crate::render::index::IndexStats;
 use crate::render::rays::protocol_rays;
@@ -374,7 +374,9 @@ impl Report {
                 r.time_ratio
             ));
         }
-        out.push_str("\n| blobs | cube side | reference hit rate | cells | entries | longest list | bytes/blob | index build ms (median, min–max) |\n");
+        out.push_str(
+            "\n| blobs | cube side | reference hit rate | cells | entries | longest list | bytes/blob | index build ms (median, min–max) |\n",
+        );
         out.push_str("|---:|---:|---:|---:|---:|---:|---:|---:|\n");
         for c in &self.counts {
             let index = match (&c.index, Self::build_ms(c)) {

@@ -133,7 +133,6 @@ impl Refinement {
     }
 }
 
-
 /// The bracketed refinement of a crossing, one field evaluation per turn:
 /// the same arithmetic as the GPU's `refine_turn` (shaders/include/
 /// marchers.glsl), in f64. `g` is the field signed so that it is negative
@@ -165,9 +164,7 @@ impl Bracket {
         if self.turns >= MAX_REFINE_TURNS || !(w > tolerance) || !(mid > self.a && mid < self.b) {
             return None;
         }
-        let interpolate = mode != Refinement::Bisection
-            && self.ga < 0.0
-            && (self.turns < SECANT_FREE_TURNS || self.turns % 2 == 0);
+        let interpolate = mode != Refinement::Bisection && self.ga < 0.0 && (self.turns < SECANT_FREE_TURNS || self.turns.is_multiple_of(2));
         if !interpolate {
             return Some(mid);
         }
@@ -254,13 +251,14 @@ mod tests {
     fn refinement_brackets_the_crossing_within_the_tolerance() {
         let tol = 1e-4;
         let r = 0.637_123;
-        let smooth: Vec<(&str, Box<dyn Fn(f64) -> f64>)> = vec![
+        type Case = (&'static str, Box<dyn Fn(f64) -> f64>);
+        let smooth: Vec<Case> = vec![
             ("line", Box::new(move |x| x - r)),
             ("kernel", Box::new(move |x: f64| (1.0 - (2.0 - x) * (2.0 - x) / 4.0).max(0.0).powi(3) - (1.0 - (2.0 - r) * (2.0 - r) / 4.0).powi(3))),
             ("steep", Box::new(move |x: f64| ((x - r) * 40.0).tanh())),
             ("curved", Box::new(move |x: f64| (x - r) * (1.0 + 30.0 * (x - r)) + 3.0 * (x - r).powi(3))),
         ];
-        let hard: Vec<(&str, Box<dyn Fn(f64) -> f64>)> = vec![
+        let hard: Vec<Case> = vec![
             ("step", Box::new(move |x| if x < r { -1.0 } else { 1.0 })),
             ("flat", Box::new(move |x: f64| (x - r).powi(9))),
             ("cliff", Box::new(move |x: f64| if x < r { -1e-6 } else { 1e6 * (x - r + 1e-9) })),

@@ -14,8 +14,8 @@ use crate::gpu::Context;
 use crate::layout::FLAG_HIT;
 use crate::method::Method;
 use crate::output::MarchStats;
-use crate::render::{MarchOptions, Renderer};
 use crate::render::rays::protocol_rays;
+use crate::render::{MarchOptions, Renderer};
 use crate::scene::Scene;
 
 /// The settings a sweep covers.
@@ -280,9 +280,7 @@ where
     let mut legend = Vec::new();
     for (i, m) in methods.iter().enumerate() {
         let color = Palette99::pick(i).to_rgba();
-        chart
-            .draw_series(points.iter().filter(|p| p.method == *m).map(|p| Circle::new((time(p), err(p)), 4, color.filled())))
-            .map_err(plot_err)?;
+        chart.draw_series(points.iter().filter(|p| p.method == *m).map(|p| Circle::new((time(p), err(p)), 4, color.filled()))).map_err(plot_err)?;
         legend.push((m.to_string(), LegendMark::Dot(color)));
     }
     let mut front: Vec<(f64, f64)> = points.iter().filter(|p| p.pareto).map(|p| (time(p), err(p))).collect();

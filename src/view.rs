@@ -28,9 +28,9 @@ use crate::gpu::{Context, ContextOptions, Presented, Presenter};
 use crate::layout::GpuRay;
 use crate::method::Method;
 use crate::output::{self, LEGEND_HEIGHT};
-use crate::render::{MarchOptions, Renderer};
 use crate::render::offscreen::{march_frame, pixel_stats};
 use crate::render::rays::{PIXEL_TILE, camera_rays};
+use crate::render::{MarchOptions, Renderer};
 use crate::scene::Scene;
 
 /// How to open the viewer.
@@ -345,16 +345,11 @@ impl App {
 
     fn open(&mut self, el: &ActiveEventLoop) -> Result<()> {
         let (w, h) = self.options.size;
-        let attributes = Window::default_attributes()
-            .with_title(format!("isomarch: {}", self.options.scene.source))
-            .with_inner_size(PhysicalSize::new(w, h));
+        let attributes =
+            Window::default_attributes().with_title(format!("isomarch: {}", self.options.scene.source)).with_inner_size(PhysicalSize::new(w, h));
         let window = el.create_window(attributes).context("creating the window")?;
         let display = el.display_handle().map_err(|e| anyhow!("the display's handle: {e}"))?.as_raw();
-        let ctx = Context::new(&ContextOptions {
-            validation: self.options.validation,
-            device: self.options.device.clone(),
-            present: Some(display),
-        })?;
+        let ctx = Context::new(&ContextOptions { validation: self.options.validation, device: self.options.device.clone(), present: Some(display) })?;
         let size = window.inner_size();
         let window_handle = window.window_handle().map_err(|e| anyhow!("the window's handle: {e}"))?.as_raw();
         let presenter = Presenter::new(&ctx, display, window_handle, (size.width.max(1), size.height.max(1)), self.options.timeout)?;
@@ -388,14 +383,12 @@ impl App {
                     self.input.heatmap = !self.input.heatmap;
                     self.show()?;
                 }
-                "t" => {
-                    if self.options.scene.transparency.is_some() {
-                        self.input.transparency = !self.input.transparency;
-                        if !self.input.usable(self.input.method) {
-                            self.input.method = Method::QuadraticTaylor;
-                        }
-                        self.schedule.remeasure();
+                "t" if self.options.scene.transparency.is_some() => {
+                    self.input.transparency = !self.input.transparency;
+                    if !self.input.usable(self.input.method) {
+                        self.input.method = Method::QuadraticTaylor;
                     }
+                    self.schedule.remeasure();
                 }
                 "s" => self.save_screenshot(None)?,
                 _ => {}
@@ -565,11 +558,11 @@ impl App {
             el.set_control_flow(ControlFlow::Wait);
             return Ok(());
         }
-        if let Some(n) = self.options.exit_after {
-            if self.schedule.presented >= n {
-                el.exit();
-                return Ok(());
-            }
+        if let Some(n) = self.options.exit_after
+            && self.schedule.presented >= n
+        {
+            el.exit();
+            return Ok(());
         }
         self.camera.advance();
         let size = self.gpu.as_ref().map(|g| g.presenter.extent()).unwrap_or((1, 1));
@@ -695,10 +688,11 @@ impl App {
 
 impl ApplicationHandler for App {
     fn resumed(&mut self, el: &ActiveEventLoop) {
-        if self.gpu.is_none() && self.error.is_none() {
-            if let Err(e) = self.open(el) {
-                self.fail(el, e);
-            }
+        if self.gpu.is_none()
+            && self.error.is_none()
+            && let Err(e) = self.open(el)
+        {
+            self.fail(el, e);
         }
     }
 
@@ -718,12 +712,11 @@ impl ApplicationHandler for App {
     }
 
     fn exiting(&mut self, _el: &ActiveEventLoop) {
-        if self.error.is_none() {
-            if let Some(path) = self.options.screenshot.clone() {
-                if let Err(e) = self.save_screenshot(Some(path)) {
-                    self.error = Some(e);
-                }
-            }
+        if self.error.is_none()
+            && let Some(path) = self.options.screenshot.clone()
+            && let Err(e) = self.save_screenshot(Some(path))
+        {
+            self.error = Some(e);
         }
     }
 }

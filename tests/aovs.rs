@@ -33,7 +33,16 @@ fn exr_aovs_hold_the_frames_results_and_the_spheres_closed_form() {
     let scene_path = dir.join("sphere.ron");
     std::fs::write(&scene_path, SPHERE).unwrap();
     let exr_path = dir.join("sphere.exr");
-    run_ok(&["render", scene_path.to_str().unwrap(), "-o", dir.join("sphere.png").to_str().unwrap(), "--aov", "depth,steps,normal", "--aov-output", exr_path.to_str().unwrap()]);
+    run_ok(&[
+        "render",
+        scene_path.to_str().unwrap(),
+        "-o",
+        dir.join("sphere.png").to_str().unwrap(),
+        "--aov",
+        "depth,steps,normal",
+        "--aov-output",
+        exr_path.to_str().unwrap(),
+    ]);
     let exr = exr::prelude::read_all_flat_layers_from_file(&exr_path).unwrap();
     let (w, h) = (40usize, 32usize);
     assert_eq!((exr.layer_data[0].size.width(), exr.layer_data[0].size.height()), (w, h));
@@ -50,8 +59,8 @@ fn exr_aovs_hold_the_frames_results_and_the_spheres_closed_form() {
         let hit = p.counts[3] & FLAG_HIT != 0;
         assert_eq!(z[i].to_bits(), if hit { p.hit[3] } else { f32::INFINITY }.to_bits(), "pixel {i}: Z {} against the frame's {:?}", z[i], p.hit);
         assert_eq!(steps[i], p.counts[0] as f32, "pixel {i}: steps");
-        for a in 0..3 {
-            assert_eq!(normal[a][i].to_bits(), p.hit[a].to_bits(), "pixel {i}: normal axis {a}");
+        for (a, axis) in normal.iter().enumerate() {
+            assert_eq!(axis[i].to_bits(), p.hit[a].to_bits(), "pixel {i}: normal axis {a}");
         }
     }
 

@@ -203,12 +203,7 @@ fn animated_frames_move_and_static_frames_do_not() {
 #[test]
 fn tradeoff_writes_its_csv_and_plot() {
     let dir = scratch("tradeoff");
-    let run = Command::new(bin())
-        .args(["tradeoff", "scenes/fig10.ron", "--quick", "-o"])
-        .arg(&dir)
-        .current_dir(repo_root())
-        .output()
-        .unwrap();
+    let run = Command::new(bin()).args(["tradeoff", "scenes/fig10.ron", "--quick", "-o"]).arg(&dir).current_dir(repo_root()).output().unwrap();
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let text = std::fs::read_to_string(dir.join("tradeoff.csv")).unwrap();
     let mut lines = text.lines();
@@ -248,7 +243,8 @@ fn tradeoff_writes_its_csv_and_plot() {
     assert!(distinct.len() > 10, "a blank plot");
     let svg = std::fs::read_to_string(dir.join("tradeoff.svg")).unwrap();
     assert!(svg.contains("<svg"));
-    let texts: Vec<&str> = svg.split("<text").skip(1).filter_map(|t| t.split_once('>')).map(|(_, rest)| rest.split("</text>").next().unwrap().trim()).collect();
+    let texts: Vec<&str> =
+        svg.split("<text").skip(1).filter_map(|t| t.split_once('>')).map(|(_, rest)| rest.split("</text>").next().unwrap().trim()).collect();
     // Every decade the times and the errors span is labelled on its axis.
     let span = |c: &str| rows.iter().map(|r| num(r, c).max(1e-7)).fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
     for c in ["ns_per_ray", "error"] {

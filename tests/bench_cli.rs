@@ -154,7 +154,11 @@ fn bench_growth_reaches_the_marcher() {
 /// steps drop to the opaque march's (it no longer follows every crossing).
 #[test]
 fn opaque_flag_marches_a_transparent_scene_for_the_first_crossing() {
-    let refused = std::process::Command::new(bin()).args(["bench", "scenes/hrbf17.ron", "--methods", "raa", "--rays", "64"]).current_dir(repo_root()).output().unwrap();
+    let refused = std::process::Command::new(bin())
+        .args(["bench", "scenes/hrbf17.ron", "--methods", "raa", "--rays", "64"])
+        .current_dir(repo_root())
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&refused.stderr);
     assert!(!refused.status.success() && err.contains("opaque"), "{err}");
     let (_, transparent) = bench("hrbf17.ron", &["--methods", "quadratic"], "transparent");

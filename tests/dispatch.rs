@@ -8,11 +8,11 @@ mod common;
 
 use common::*;
 use glam::DVec3;
+use isomarch::Method;
 use isomarch::field::Field;
 use isomarch::layout::GpuRay;
 use isomarch::render::rays::{Ray, protocol_rays};
 use isomarch::render::{MarchOptions, Renderer, gpu_primitives};
-use isomarch::Method;
 
 /// A ray down the z axis through both blobs, on t in [3, 7].
 const THROUGH: GpuRay = GpuRay { o: [0.1, 0.2, 5.0, 3.0], d: [0.0, 0.0, -1.0, 7.0] };
@@ -20,12 +20,7 @@ const THROUGH: GpuRay = GpuRay { o: [0.1, 0.2, 5.0, 3.0], d: [0.0, 0.0, -1.0, 7.
 #[test]
 fn an_unknown_primitive_kind_poisons_every_evaluation_with_nan() {
     let ctx = gpu();
-    let s = scene(
-        vec![vec![compact(DVec3::ZERO, 2.0), compact(DVec3::new(0.5, 0.0, 0.0), 1.5)]],
-        0.5,
-        Method::QuadraticTaylor,
-        1e-3,
-    );
+    let s = scene(vec![vec![compact(DVec3::ZERO, 2.0), compact(DVec3::new(0.5, 0.0, 0.0), 1.5)]], 0.5, Method::QuadraticTaylor, 1e-3);
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
     let queries = [THROUGH];
     for &method in Method::ALL {
@@ -40,7 +35,9 @@ fn an_unknown_primitive_kind_poisons_every_evaluation_with_nan() {
         let b = renderer.probe_bounds(method, MarchOptions::for_scene(&s), &queries).unwrap()[0];
         assert!(b.lo[0].is_nan(), "{method}: an unknown kind gave the value {b:?}, not NaN");
         match method {
-            Method::Sphere | Method::FieldInversion | Method::FieldInversionDynamol => assert!(b.hi[..3].iter().all(|x| x.is_nan()), "{method}: gradient {b:?}"),
+            Method::Sphere | Method::FieldInversion | Method::FieldInversionDynamol => {
+                assert!(b.hi[..3].iter().all(|x| x.is_nan()), "{method}: gradient {b:?}")
+            }
             Method::Segment => assert!(b.hi[1].is_nan(), "{method}: Lipschitz bound {b:?}"),
             Method::Raa => assert!(b.hi[0].is_nan(), "{method}: range {b:?}"),
             _ => assert!(b.lo[1].is_nan() && b.hi[1].is_nan(), "{method}: slopes {b:?}"),

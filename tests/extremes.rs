@@ -15,12 +15,12 @@ mod common;
 
 use common::*;
 use glam::DVec3;
+use isomarch::Method;
 use isomarch::bench::{accuracy, reference_hits};
 use isomarch::layout::{FLAG_HIT, FLAG_OUT_OF_STEPS, GpuRay, GpuResult};
-use isomarch::render::{MarchOptions, Renderer};
 use isomarch::render::rays::{clipped_ray, protocol_rays};
+use isomarch::render::{MarchOptions, Renderer};
 use isomarch::scene::{Kernel, Primitive, Scene};
-use isomarch::Method;
 
 /// Measured regression bound (of 256 rays): rays of the bisection
 /// baselines that run out of their 100,000 steps at minimum step 1e-6; see
@@ -42,7 +42,9 @@ fn assert_finite(results: &[GpuResult], what: &str) {
 enum Verdict {
     Agrees,
     /// Found late (beyond `late`) or not at all.
-    Missed { out_of_steps: bool },
+    Missed {
+        out_of_steps: bool,
+    },
     /// Found early (beyond `early`) or where the reference has none.
     False,
 }
@@ -256,7 +258,7 @@ fn coincident_blobs_iso_extremes_and_gaussian_scales() {
 fn gaussians_beyond_f32_are_refused() {
     let text = r#"Scene(camera: (eye: (0.0, 0.0, 8.0), target: (0.0, 0.0, 0.0)), iso: 0.5,
         groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Gaussian(r: 1.0, s: 100.0))])])"#;
-    let e = Scene::parse(text, "sharp.ron").err().expect("refused").to_string();
+    let e = Scene::parse(text, "sharp.ron").expect_err("refused").to_string();
     assert!(e.contains("f32") && e.contains("kernel"), "{e}");
     assert!(Scene::parse(&text.replace("100.0", "50.0"), "ok.ron").is_ok());
 }

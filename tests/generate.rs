@@ -121,11 +121,9 @@ fn moving_particles_stay_inside_their_bounds() {
 #[test]
 fn bad_arguments_are_refused_in_one_line() {
     let dir = scratch("generate-refuse");
-    for (args, name, expect) in [
-        (&["--count", "0"][..], "zero.ron", "--count"),
-        (&["--count", "10"][..], "scene.txt", ".ron"),
-        (&["--count", "10"][..], "scene", ".ron"),
-    ] {
+    for (args, name, expect) in
+        [(&["--count", "0"][..], "zero.ron", "--count"), (&["--count", "10"][..], "scene.txt", ".ron"), (&["--count", "10"][..], "scene", ".ron")]
+    {
         let path = dir.join(name);
         let out = generate(args, &path);
         let stderr = String::from_utf8_lossy(&out.stderr);
@@ -188,7 +186,18 @@ fn batch_frames_log_each_index_build() {
     assert_ok(&generate(&["--count", "150", "--seed", "4", "--motion"], &moving));
     let csv = dir.join("moving.csv");
     let pattern = dir.join("m_####.png");
-    run_ok(&["render", moving.to_str().unwrap(), "--size", "24x24", "--frames", "0..3", "-o", pattern.to_str().unwrap(), "--csv", csv.to_str().unwrap()]);
+    run_ok(&[
+        "render",
+        moving.to_str().unwrap(),
+        "--size",
+        "24x24",
+        "--frames",
+        "0..3",
+        "-o",
+        pattern.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
     let builds = index_column(&csv);
     assert_eq!(builds.len(), 3);
     for b in &builds {
@@ -198,6 +207,17 @@ fn batch_frames_log_each_index_build() {
     let csv = dir.join("fig10.csv");
     let pattern = dir.join("f_####.png");
     let fig10 = common::repo_root().join("scenes/fig10.ron");
-    run_ok(&["render", fig10.to_str().unwrap(), "--size", "16x16", "--frames", "0..2", "-o", pattern.to_str().unwrap(), "--csv", csv.to_str().unwrap()]);
+    run_ok(&[
+        "render",
+        fig10.to_str().unwrap(),
+        "--size",
+        "16x16",
+        "--frames",
+        "0..2",
+        "-o",
+        pattern.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
     assert_eq!(index_column(&csv), vec![String::new(), String::new()]);
 }

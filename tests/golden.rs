@@ -25,9 +25,7 @@ fn check_golden(name: &str, actual: &RgbImage) {
         actual.save(&path).unwrap();
         return;
     }
-    let golden = image::open(&path)
-        .unwrap_or_else(|e| panic!("{}: {e} (create it with UPDATE_GOLDENS=1)", path.display()))
-        .to_rgb8();
+    let golden = image::open(&path).unwrap_or_else(|e| panic!("{}: {e} (create it with UPDATE_GOLDENS=1)", path.display())).to_rgb8();
     assert_eq!(golden.dimensions(), actual.dimensions(), "{name}: size");
     let mut diff = RgbImage::new(golden.width(), golden.height());
     let mut differing = 0usize;
@@ -45,11 +43,7 @@ fn check_golden(name: &str, actual: &RgbImage) {
         let diff_path = golden_dir().join(format!("{name}.diff.png"));
         actual.save(&actual_path).unwrap();
         diff.save(&diff_path).unwrap();
-        panic!(
-            "{name}: {differing} of {total} pixels differ; see {} and {}",
-            actual_path.display(),
-            diff_path.display()
-        );
+        panic!("{name}: {differing} of {total} pixels differ; see {} and {}", actual_path.display(), diff_path.display());
     }
 }
 
@@ -114,11 +108,7 @@ const STEP_COUNT_SIZE: u32 = 64;
 fn counted_methods(scene: &Scene) -> Vec<Method> {
     // Field inversion marches molecules only (one sum of like Gaussians):
     // tests/molecules.rs covers it.
-    Method::CONSERVATIVE
-        .iter()
-        .copied()
-        .filter(|m| scene.transparency.is_none() || !matches!(m, Method::LinearBisection | Method::Raa))
-        .collect()
+    Method::CONSERVATIVE.iter().copied().filter(|m| scene.transparency.is_none() || !matches!(m, Method::LinearBisection | Method::Raa)).collect()
 }
 
 /// The heatmaps clamp at 75 steps and allow 8/255, so a regression of a

@@ -16,9 +16,7 @@ fn validation_canary_catches_a_dispatch_without_a_pipeline() {
     let d = &ctx.device;
     // SAFETY: a deliberate misuse, recorded but never submitted.
     unsafe {
-        let pool = d
-            .create_command_pool(&vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family), None)
-            .unwrap();
+        let pool = d.create_command_pool(&vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family), None).unwrap();
         let cmd = d
             .allocate_command_buffers(
                 &vk::CommandBufferAllocateInfo::default().command_pool(pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1),
@@ -113,12 +111,42 @@ fn an_output_with_an_unknown_extension_is_refused_before_any_work() {
         (vec!["render".into(), "scenes/default.ron".into(), "-o".into(), d("out.txt")], "-o", ".txt"),
         (vec!["render".into(), "scenes/default.ron".into(), "-o".into(), d("out")], "-o", "without an extension"),
         (vec!["render".into(), "scenes/default.ron".into(), "-o".into(), d("a.png"), "--heatmap".into(), d("h.jpg")], "--heatmap", ".jpg"),
-        (vec!["render".into(), "scenes/default.ron".into(), "-o".into(), d("a.png"), "--aov".into(), "depth".into(), "--aov-output".into(), d("d.png")], "--aov-output", ".png"),
+        (
+            vec![
+                "render".into(),
+                "scenes/default.ron".into(),
+                "-o".into(),
+                d("a.png"),
+                "--aov".into(),
+                "depth".into(),
+                "--aov-output".into(),
+                d("d.png"),
+            ],
+            "--aov-output",
+            ".png",
+        ),
         (vec!["render".into(), "scenes/default.ron".into(), "-o".into(), d("a.png"), "--stats".into(), d("s.txt")], "--stats", ".txt"),
         (vec!["render".into(), "scenes/default.ron".into(), "--frames".into(), "0..2".into(), "-o".into(), d("f_##.tif")], "-o", ".tif"),
-        (vec!["render".into(), "scenes/default.ron".into(), "--frames".into(), "0..2".into(), "-o".into(), d("f_##.png"), "--csv".into(), d("c.txt")], "--csv", ".txt"),
+        (
+            vec![
+                "render".into(),
+                "scenes/default.ron".into(),
+                "--frames".into(),
+                "0..2".into(),
+                "-o".into(),
+                d("f_##.png"),
+                "--csv".into(),
+                d("c.txt"),
+            ],
+            "--csv",
+            ".txt",
+        ),
         (vec!["bench".into(), "scenes/default.ron".into(), "--rays".into(), "64".into(), "--json".into(), d("b.txt")], "--json", ".txt"),
-        (vec!["bench".into(), "scenes/default.ron".into(), "--rays".into(), "64".into(), "--heatmap-grid".into(), d("g.exr")], "--heatmap-grid", ".exr"),
+        (
+            vec!["bench".into(), "scenes/default.ron".into(), "--rays".into(), "64".into(), "--heatmap-grid".into(), d("g.exr")],
+            "--heatmap-grid",
+            ".exr",
+        ),
         (vec!["view".into(), "scenes/default.ron".into(), "--screenshot".into(), d("s.bmp")], "--screenshot", ".bmp"),
         (vec!["generate".into(), "particles".into(), "--count".into(), "10".into(), "-o".into(), d("p.txt")], "-o", ".txt"),
     ];

@@ -13,6 +13,7 @@ use std::time::Duration;
 
 use common::*;
 use glam::DVec3;
+use isomarch::Method;
 use isomarch::bench::{accuracy, reference_hits};
 use isomarch::field::Field;
 use isomarch::output::MarchStats;
@@ -22,7 +23,6 @@ use isomarch::render::{MarchOptions, Renderer};
 use isomarch::scene::file::PrimitiveFile;
 use isomarch::scene::hrbf::INTERPOLATION_TOLERANCE;
 use isomarch::scene::{Scene, Transparency};
-use isomarch::Method;
 
 const SCENES: [&str; 2] = ["hrbf8.ron", "hrbf17.ron"];
 
@@ -128,7 +128,12 @@ fn both_scenes_render_opaque_and_transparent() {
             let out = renderer.march(method, MarchOptions { shade: false, ..MarchOptions::for_scene(&s) }, &rays, |_| {}).unwrap();
             let acc = accuracy(&out.results, &reference, tol, tol);
             assert_eq!(MarchStats::of(&out.results, None).out_of_steps_rate, 0.0, "{name} {method}: out of steps");
-            assert_eq!((acc.misses, acc.false_hits), (0, 0), "{name} {method}: (missed or late, early or false) hits (max error {:e})", acc.max_abs_error);
+            assert_eq!(
+                (acc.misses, acc.false_hits),
+                (0, 0),
+                "{name} {method}: (missed or late, early or false) hits (max error {:e})",
+                acc.max_abs_error
+            );
         }
     }
     assert_no_validation(&ctx);
@@ -157,9 +162,7 @@ fn quadratic_takes_fewer_steps_than_raa_on_both_scenes() {
 
 /// An HRBF scene text with `points` in place of the control points.
 fn with_points(points: &str) -> String {
-    format!(
-        "Scene(camera: (eye: (0.0, 0.0, 6.0), target: (0.0, 0.0, 0.0)), iso: 0.5, groups: [(primitives: [Hrbf(points: [{points}])])])"
-    )
+    format!("Scene(camera: (eye: (0.0, 0.0, 6.0), target: (0.0, 0.0, 0.0)), iso: 0.5, groups: [(primitives: [Hrbf(points: [{points}])])])")
 }
 
 #[test]
@@ -213,11 +216,11 @@ fn rays_through_control_points_get_finite_bounds_and_correct_hits() {
     };
     // hrbf8 has control points at (±1.4, 0, 0), (0, ±0.95, 0), (0, 0, ±0.8).
     let queries = vec![
-        ray(DVec3::new(-4.0, 0.0, 0.0), DVec3::X, 0.0, 8.0),   // through (-1.4, 0, 0) and (1.4, 0, 0)
-        ray(DVec3::new(0.0, -4.0, 0.0), DVec3::Y, 0.0, 8.0),   // through (0, ±0.95, 0)
-        ray(DVec3::new(0.0, 0.0, 4.0), -DVec3::Z, 3.2, 8.0),   // starting on (0, 0, 0.8)
-        ray(DVec3::new(0.0, 0.0, 4.0), -DVec3::Z, 3.2, 3.2),   // zero length on it
-        ray(DVec3::new(-4.0, 0.0, 0.0), DVec3::X, 2.0, 2.6),   // ending on (-1.4, 0, 0)
+        ray(DVec3::new(-4.0, 0.0, 0.0), DVec3::X, 0.0, 8.0), // through (-1.4, 0, 0) and (1.4, 0, 0)
+        ray(DVec3::new(0.0, -4.0, 0.0), DVec3::Y, 0.0, 8.0), // through (0, ±0.95, 0)
+        ray(DVec3::new(0.0, 0.0, 4.0), -DVec3::Z, 3.2, 8.0), // starting on (0, 0, 0.8)
+        ray(DVec3::new(0.0, 0.0, 4.0), -DVec3::Z, 3.2, 3.2), // zero length on it
+        ray(DVec3::new(-4.0, 0.0, 0.0), DVec3::X, 2.0, 2.6), // ending on (-1.4, 0, 0)
     ];
     let mut renderer = Renderer::new(&ctx, &s).unwrap();
     let options = MarchOptions { shade: false, ..MarchOptions::for_scene(&s) };
@@ -240,7 +243,12 @@ fn rays_through_control_points_get_finite_bounds_and_correct_hits() {
         let out = renderer.march(method, options, marched, |_| {}).unwrap();
         let tol = 2.0 * s.refine_tolerance() + 1e-5;
         let acc = accuracy(&out.results, &reference, tol, tol);
-        assert_eq!((acc.misses, acc.false_hits), (0, 0), "{method}: hits {:?} against the reference {reference:?}", out.results.iter().map(|r| (r.counts[3] & FLAG_HIT != 0, r.hit[3])).collect::<Vec<_>>());
+        assert_eq!(
+            (acc.misses, acc.false_hits),
+            (0, 0),
+            "{method}: hits {:?} against the reference {reference:?}",
+            out.results.iter().map(|r| (r.counts[3] & FLAG_HIT != 0, r.hit[3])).collect::<Vec<_>>()
+        );
     }
     assert_no_validation(&ctx);
 }

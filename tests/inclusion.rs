@@ -7,16 +7,16 @@ mod common;
 
 use common::*;
 use glam::DVec3;
+use isomarch::Method;
+use isomarch::field::Field;
 use isomarch::field::bound::Bound;
 use isomarch::field::bounds::Order;
 use isomarch::field::fold::field_bound;
-use isomarch::field::Field;
 use isomarch::field::quad::{QuadSettings, ValidityScope};
 use isomarch::layout::GpuRay;
-use isomarch::render::{MarchOptions, Renderer};
 use isomarch::render::rays::{Ray, protocol_rays};
+use isomarch::render::{MarchOptions, Renderer};
 use isomarch::scene::{Primitive, Scene};
-use isomarch::Method;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
@@ -206,7 +206,12 @@ fn gpu_bounds_equal_the_f64_mirror() {
                 }
                 // The GPU shortens the interval where the f64 mirror does.
                 let requested = f64::from(q.d[3] - q.o[3]);
-                assert!((g.t_valid - e.t_valid).abs() <= 1e-4 * (1.0 + requested), "{name} {method} {quad:?}: valid to {} on the GPU, {} in f64", g.t_valid, e.t_valid);
+                assert!(
+                    (g.t_valid - e.t_valid).abs() <= 1e-4 * (1.0 + requested),
+                    "{name} {method} {quad:?}: valid to {} on the GPU, {} in f64",
+                    g.t_valid,
+                    e.t_valid
+                );
                 if requested > 0.0 {
                     let fraction = (e.t_valid - f64::from(q.o[3])) / requested;
                     if method == Method::Quadratic {
@@ -256,10 +261,20 @@ fn taylor_derivative_ranges_are_tight() {
                     hi = hi.max(d);
                 }
                 let width = (k.max - k.min).max(1e-6);
-                assert!(k.min <= lo + 1e-3 * width + 1e-6 && k.max >= hi - 1e-3 * width - 1e-6, "{order:?} range [{}, {}] misses sampled [{lo}, {hi}]", k.min, k.max);
+                assert!(
+                    k.min <= lo + 1e-3 * width + 1e-6 && k.max >= hi - 1e-3 * width - 1e-6,
+                    "{order:?} range [{}, {}] misses sampled [{lo}, {hi}]",
+                    k.min,
+                    k.max
+                );
                 // Sampling on a 2000-point grid sees the extrema to within
                 // a small fraction of the width.
-                assert!(k.min >= lo - 0.02 * width - 1e-6 && k.max <= hi + 0.02 * width + 1e-6, "{order:?} range [{}, {}] wider than sampled [{lo}, {hi}]", k.min, k.max);
+                assert!(
+                    k.min >= lo - 0.02 * width - 1e-6 && k.max <= hi + 0.02 * width + 1e-6,
+                    "{order:?} range [{}, {}] wider than sampled [{lo}, {hi}]",
+                    k.min,
+                    k.max
+                );
             }
         }
     }
@@ -334,7 +349,10 @@ fn raa_ranges_contain_the_field_on_gpu_and_f64() {
             let (glo, ghi) = (f64::from(g.lo[0]), f64::from(g.hi[0]));
             assert!(lo.is_finite() && hi.is_finite() && glo.is_finite() && ghi.is_finite(), "{name}: non-finite range");
             let width = (hi - lo).abs();
-            assert!((glo - lo).abs() <= 1e-4 * (sc + width) && (ghi - hi).abs() <= 1e-4 * (sc + width), "{name}: GPU [{glo}, {ghi}] vs f64 [{lo}, {hi}]");
+            assert!(
+                (glo - lo).abs() <= 1e-4 * (sc + width) && (ghi - hi).abs() <= 1e-4 * (sc + width),
+                "{name}: GPU [{glo}, {ghi}] vs f64 [{lo}, {hi}]"
+            );
             for i in 0..=200 {
                 let t = r.t0 + (r.t1 - r.t0) * f64::from(i) / 200.0;
                 let f = field.value(r.o + t * r.d);
@@ -377,7 +395,11 @@ fn bound_widths_stay_at_their_recorded_tightness() {
                 kept += if r.t1 > r.t0 { len / (r.t1 - r.t0) } else { 1.0 };
             }
             let n = queries.len() as f64;
-            let label = format!("{method}{}{}", if quad.extension { "" } else { " no-extension" }, if quad.validity == ValidityScope::Every { " every" } else { "" });
+            let label = format!(
+                "{method}{}{}",
+                if quad.extension { "" } else { " no-extension" },
+                if quad.validity == ValidityScope::Every { " every" } else { "" }
+            );
             measured.push((name.clone(), label, width / n, kept / n));
         }
         let raa: f64 = queries
@@ -419,7 +441,10 @@ fn bound_widths_stay_at_their_recorded_tightness() {
             None => failures.push(format!("{scene} {method}: no row in the record")),
             Some((w, k)) => {
                 if (width - w).abs() > 0.02 * w || (kept - k).abs() > 0.02 * k {
-                    failures.push(format!("{scene} {method}: width {width:.4e} (recorded {w:.4e}, {:+.2}%), valid fraction {kept:.4} (recorded {k:.4})", 100.0 * (width - w) / w));
+                    failures.push(format!(
+                        "{scene} {method}: width {width:.4e} (recorded {w:.4e}, {:+.2}%), valid fraction {kept:.4} (recorded {k:.4})",
+                        100.0 * (width - w) / w
+                    ));
                 }
             }
         }

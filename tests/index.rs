@@ -9,12 +9,12 @@ mod common;
 
 use common::*;
 use glam::DVec3;
+use isomarch::Method;
 use isomarch::bench::{accuracy, accuracy_all, reference_crossings, reference_hits};
 use isomarch::layout::{FLAG_OUT_OF_STEPS, GpuRay, GpuResult};
 use isomarch::render::rays::protocol_rays;
 use isomarch::render::{MarchOptions, Renderer};
 use isomarch::scene::{Scene, Transparency};
-use isomarch::Method;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
@@ -85,7 +85,13 @@ fn check_scene(s: &Scene, rays: &[GpuRay], what: &str) {
         let results: Vec<GpuResult> = finished.iter().map(|&i| out.results[i]).collect();
         let expected: Vec<Option<f64>> = finished.iter().map(|&i| first[i]).collect();
         let acc = accuracy(&results, &expected, tol, tol);
-        assert!(acc.misses + acc.false_hits == 0, "{what} {method}: {} missed, {} false; max error {:e}", acc.misses, acc.false_hits, acc.max_abs_error);
+        assert!(
+            acc.misses + acc.false_hits == 0,
+            "{what} {method}: {} missed, {} false; max error {:e}",
+            acc.misses,
+            acc.false_hits,
+            acc.max_abs_error
+        );
     }
     let all = reference_crossings(s, rays, false, false);
     let transparent = MarchOptions { transparent: true, ..opaque };

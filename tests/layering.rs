@@ -54,12 +54,7 @@ fn references(source: &str, own: &[String]) -> Vec<Vec<String>> {
 
 /// A cycle in `graph`, if any, as the modules along it.
 fn find_cycle(graph: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
-    fn visit(
-        n: &str,
-        graph: &BTreeMap<String, BTreeSet<String>>,
-        state: &mut BTreeMap<String, u8>,
-        stack: &mut Vec<String>,
-    ) -> Option<Vec<String>> {
+    fn visit(n: &str, graph: &BTreeMap<String, BTreeSet<String>>, state: &mut BTreeMap<String, u8>, stack: &mut Vec<String>) -> Option<Vec<String>> {
         state.insert(n.to_string(), 1);
         stack.push(n.to_string());
         for m in graph.get(n).into_iter().flatten() {
@@ -84,10 +79,10 @@ fn find_cycle(graph: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>>
     }
     let mut state = BTreeMap::new();
     for n in graph.keys() {
-        if state.get(n.as_str()).copied().unwrap_or(0) == 0 {
-            if let Some(c) = visit(n, graph, &mut state, &mut Vec::new()) {
-                return Some(c);
-            }
+        if state.get(n.as_str()).copied().unwrap_or(0) == 0
+            && let Some(c) = visit(n, graph, &mut state, &mut Vec::new())
+        {
+            return Some(c);
         }
     }
     None
@@ -105,13 +100,13 @@ fn no_module_depends_on_itself_through_others() {
     for file in &files {
         let rel = file.strip_prefix(&src).unwrap();
         if rel == Path::new("main.rs") {
-            continue;   // the binary: the top of every chain
+            continue; // the binary: the top of every chain
         }
         let own = module_path(rel);
         for target in references(&std::fs::read_to_string(file).unwrap(), &own) {
             let common = own.iter().zip(&target).take_while(|(a, b)| a == b).count();
             if common >= own.len() || common >= target.len() {
-                continue;   // itself, or one of its own submodules
+                continue; // itself, or one of its own submodules
             }
             let parent = own[..common].to_vec();
             graphs.entry(parent).or_default().entry(own[common].clone()).or_default().insert(target[common].clone());

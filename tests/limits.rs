@@ -60,9 +60,7 @@ fn flat_scene(n: usize) -> Scene {
     }
     let mut s = scene(groups, 0.5, Method::LinearBisection, 1.0);
     s.marching.min_step = 1e-4 * s.min_radius();
-    s.lights = (0..4)
-        .map(|i| Light { direction: DVec3::new(f64::from(i) - 1.5, 1.0, 0.5).normalize(), color: DVec3::splat(0.3) })
-        .collect();
+    s.lights = (0..4).map(|i| Light { direction: DVec3::new(f64::from(i) - 1.5, 1.0, 0.5).normalize(), color: DVec3::splat(0.3) }).collect();
     s
 }
 

@@ -4,26 +4,21 @@ mod common;
 
 use common::*;
 use glam::DVec3;
+use isomarch::Method;
 use isomarch::bench::{accuracy, accuracy_all, match_window, reference_crossings, reference_hits};
 use isomarch::field::quad::{QuadSettings, ValidityScope};
 use isomarch::layout::{FLAG_HIT, GpuRay, GpuResult};
 use isomarch::output::MarchStats;
-use isomarch::render::{MarchOptions, Renderer};
 use isomarch::render::rays::{Ray, camera_rays, protocol_rays};
+use isomarch::render::{MarchOptions, Renderer};
 use isomarch::scene::Scene;
-use isomarch::Method;
 
 /// Hit distances of `scene`'s camera rays (64x64) with `method`.
 fn march_camera(ctx: &std::sync::Arc<isomarch::gpu::Context>, scene: &Scene, method: Method) -> (Vec<Ray>, Vec<GpuResult>) {
     let (rays, pixels) = camera_rays(&scene.camera, 64, 64, &scene.bounds);
     let mut r = Renderer::new(ctx, scene).unwrap();
     let out = r.march(method, MarchOptions::for_scene(scene), &rays, |_| {}).unwrap();
-    rays.iter()
-        .zip(out.results)
-        .zip(pixels)
-        .filter(|(_, p)| p.is_some())
-        .map(|((ray, res), _)| (Ray::from_gpu(ray), res))
-        .unzip()
+    rays.iter().zip(out.results).zip(pixels).filter(|(_, p)| p.is_some()).map(|((ray, res), _)| (Ray::from_gpu(ray), res)).unzip()
 }
 
 /// Checks every camera ray against the sphere of `radius` at the origin:
@@ -215,10 +210,7 @@ fn random_scenes_find_the_references_first_crossing_on_gpu_and_f64() {
                 let stats = MarchStats::of(&out.results, None);
                 assert_eq!(stats.out_of_steps_rate, 0.0, "seed {seed} {method_label}: rays ran out of steps");
                 let bad = acc.misses + acc.false_hits;
-                let allowed = KNOWN_EXCEPTIONS
-                    .iter()
-                    .find(|(s, m, _)| *s == seed && *m == max_of_groups)
-                    .map_or(0, |e| e.2);
+                let allowed = KNOWN_EXCEPTIONS.iter().find(|(s, m, _)| *s == seed && *m == max_of_groups).map_or(0, |e| e.2);
                 if bad > allowed {
                     report.push(format!(
                         "seed {seed} max={max_of_groups} {method_label}: {} missed or late, {} early or false (max error {:e})",
@@ -263,7 +255,8 @@ fn transparent_marching_finds_every_crossing_on_gpu_and_f64() {
         .chain([(1100, false, random_hrbf_scene(1100, false, Method::Segment)), (1101, true, random_hrbf_scene(1101, true, Method::Segment))]);
     for (seed, max_of_groups, mut s) in scenes {
         {
-            s.transparency = Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::splat(0.1), ior: None, max_depth: 6, reflectivity: 1.0 });
+            s.transparency =
+                Some(isomarch::scene::Transparency { opacity: 0.2, absorption: DVec3::splat(0.1), ior: None, max_depth: 6, reflectivity: 1.0 });
             let rays = protocol_rays(&s.bounds, 512, seed);
             let reference = reference_crossings(&s, &rays, false, false);
             checked += reference.iter().map(Vec::len).sum::<usize>();
@@ -301,7 +294,10 @@ fn transparent_marching_finds_every_crossing_on_gpu_and_f64() {
                     .collect();
                 let acc = accuracy_all(&mirror, &reference[..128], tol, tol);
                 if acc.misses + acc.false_hits > 0 {
-                    report.push(format!("seed {seed} max={max_of_groups} {method} f64 mirror: {} missed, {} false crossings", acc.misses, acc.false_hits));
+                    report.push(format!(
+                        "seed {seed} max={max_of_groups} {method} f64 mirror: {} missed, {} false crossings",
+                        acc.misses, acc.false_hits
+                    ));
                 }
             }
         }
@@ -412,7 +408,13 @@ fn reflectivity_scales_the_reflected_light() {
         t.reflectivity = rho;
         t.max_depth = 1;
         let job = RenderJob::new(base.clone(), Method::QuadraticTaylor, (40, 32), std::path::PathBuf::new(), std::time::Duration::from_secs(300));
-        render_frame(&ctx, &job).unwrap().0.pixels.iter().map(|p| DVec3::new(p.color[0].into(), p.color[1].into(), p.color[2].into())).collect::<Vec<_>>()
+        render_frame(&ctx, &job)
+            .unwrap()
+            .0
+            .pixels
+            .iter()
+            .map(|p| DVec3::new(p.color[0].into(), p.color[1].into(), p.color[2].into()))
+            .collect::<Vec<_>>()
     };
     let (none, half, full) = (render(0.0, &mut base), render(0.5, &mut base), render(1.0, &mut base));
     let mut differ = 0;

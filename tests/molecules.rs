@@ -66,7 +66,7 @@ fn a_pdb_cut_short_inside_a_record_is_refused_naming_the_line() {
     // Cut in the middle of the 100th atom's coordinates.
     let line = line_of(&text, "HETATM   10") + 99;
     let start: usize = text.lines().take(line - 1).map(|l| l.len() + 1).sum();
-    let f = write(&dir, "cut.pdb", text[..start + 40].as_bytes());
+    let f = write(&dir, "cut.pdb", &text.as_bytes()[..start + 40]);
     assert_refused(&f, &["cut.pdb:", &format!(":{line}:"), "cut short"]);
 }
 
@@ -86,11 +86,8 @@ fn coordinates_that_are_not_numbers_are_refused_naming_the_line_and_field() {
     let dir = scratch("mol-nan");
     let text = text_1a8o();
     let line = line_of(&text, "HETATM   20");
-    let bad: String = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| if i + 1 == line { format!("{}  12.x45{}\n", &l[..38], &l[46..]) } else { format!("{l}\n") })
-        .collect();
+    let bad: String =
+        text.lines().enumerate().map(|(i, l)| if i + 1 == line { format!("{}  12.x45{}\n", &l[..38], &l[46..]) } else { format!("{l}\n") }).collect();
     let f = write(&dir, "nan.pdb", bad.as_bytes());
     assert_refused(&f, &["nan.pdb:", &format!(":{line}:"), "y coordinate", "12.x45", "not a number"]);
     let cif = "data_X\nloop_\n_atom_site.type_symbol\n_atom_site.Cartn_x\n_atom_site.Cartn_y\n_atom_site.Cartn_z\nC 1.0 2.0 3.0\nN 1.5 nan? 3.0\n";
@@ -194,13 +191,23 @@ fn every_method_renders_a_molecule_and_field_inversion_reports_its_miss_rate() {
         assert!(lit > 48 * 48 / 10, "{method}: only {lit} pixels show the molecule");
     }
     let json = dir.join("bench.json");
-    let out = run(&["bench", pdb.to_str().unwrap(), "--methods", "quadratic-taylor,field-inversion", "--rays", "2048", "--json", json.to_str().unwrap()]);
+    let out =
+        run(&["bench", pdb.to_str().unwrap(), "--methods", "quadratic-taylor,field-inversion", "--rays", "2048", "--json", json.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let text = report.to_string();
     assert!(text.contains("field-inversion") && text.contains("miss_rate"), "{text}");
     // A scene that is no sum of like Gaussians: refused in one line.
-    let out = run(&["render", repo_root().join("scenes/fig10.ron").to_str().unwrap(), "-o", dir.join("f.png").to_str().unwrap(), "--method", "field-inversion", "--size", "16x16"]);
+    let out = run(&[
+        "render",
+        repo_root().join("scenes/fig10.ron").to_str().unwrap(),
+        "-o",
+        dir.join("f.png").to_str().unwrap(),
+        "--method",
+        "field-inversion",
+        "--size",
+        "16x16",
+    ]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && stderr.lines().count() == 1 && stderr.contains("field-inversion"), "{stderr}");
 }
@@ -210,8 +217,18 @@ fn batch_frames_turn_the_camera_around_the_molecule() {
     let dir = scratch("mol-turntable");
     let pattern = dir.join("f_#.png");
     let out = run(&[
-        "render", pdb_1a8o().to_str().unwrap(), "--turntable", "4", "--frames", "0..2", "--fps", "1", "--size", "40x40",
-        "-o", pattern.to_str().unwrap(),
+        "render",
+        pdb_1a8o().to_str().unwrap(),
+        "--turntable",
+        "4",
+        "--frames",
+        "0..2",
+        "--fps",
+        "1",
+        "--size",
+        "40x40",
+        "-o",
+        pattern.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let a = image::open(dir.join("f_0.png")).unwrap().to_rgb8();
@@ -230,8 +247,16 @@ fn a_molecules_camera_rays_match_the_reference_for_every_conservative_method() {
     let json = dir.join("bench.json");
     let methods: Vec<&str> = isomarch::Method::ALL.iter().map(|m| m.name()).collect();
     let out = run(&[
-        "bench", pdb_1a8o().to_str().unwrap(), "--camera", "64x64", "--rays", "1024", "--methods", &methods.join(","),
-        "--json", json.to_str().unwrap(),
+        "bench",
+        pdb_1a8o().to_str().unwrap(),
+        "--camera",
+        "64x64",
+        "--rays",
+        "1024",
+        "--methods",
+        &methods.join(","),
+        "--json",
+        json.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();

@@ -62,8 +62,7 @@ fn closed_form(scene: &Scene, m: &Dielectric, rho: f64, h: f64) -> DVec3 {
     let r2 = fresnel_by_angles(theta_t, m.ior, 1.0);
     let out = DVec3::new((2.0 * (theta_t - theta_i)).cos(), (2.0 * (theta_t - theta_i)).sin(), 0.0);
     let back = inside - 2.0 * inside.dot(n2) * n2;
-    c + through * (1.0 - r2) * environment(scene, out)
-        + through * m.reflectivity * r2 * (-m.absorption * chord).exp() * environment(scene, back)
+    c + through * (1.0 - r2) * environment(scene, out) + through * m.reflectivity * r2 * (-m.absorption * chord).exp() * environment(scene, back)
 }
 
 /// A dense glass (flint-like), so that the reflected share is large enough
@@ -102,7 +101,10 @@ fn a_dielectric_sphere_reflects_and_transmits_its_closed_form() {
                 // Hit points and normals come from the f32 march (measured
                 // errors up to 1.5e-4 of a colour near 0.3).
                 eprintln!("depth {max_depth}, reflectivity {reflectivity}, h = {k} ρ: error {err:.2e}");
-                assert!(err < TOLERANCE, "depth {max_depth}, reflectivity {reflectivity}, h = {k} ρ: traced {got}, closed form {expected} (error {err:e})");
+                assert!(
+                    err < TOLERANCE,
+                    "depth {max_depth}, reflectivity {reflectivity}, h = {k} ρ: traced {got}, closed form {expected} (error {err:e})"
+                );
                 checked.push(expected);
             }
         }

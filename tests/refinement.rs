@@ -91,11 +91,7 @@ fn bench_repeat_reports_medians_and_ranges() {
         }
     }
     // A repeat count of 0 is refused in one line.
-    let run = std::process::Command::new(bin())
-        .args(["bench", "scenes/fig10.ron", "--repeat", "0"])
-        .current_dir(repo_root())
-        .output()
-        .unwrap();
+    let run = std::process::Command::new(bin()).args(["bench", "scenes/fig10.ron", "--repeat", "0"]).current_dir(repo_root()).output().unwrap();
     assert!(!run.status.success());
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(err.contains("--repeat must be at least 1") && err.trim().lines().count() == 1, "{err}");

@@ -126,7 +126,9 @@ fn fig16_matches_its_csvs_and_moves_as_specified() {
         .collect();
     assert_eq!(s.groups.len(), 1);
     assert_eq!(s.primitive_count(), rows.len() + 1, "nine blobs and the ground");
-    assert!(matches!(s.groups[0].last(), Some(Primitive::Plane { normal, offset, radius, .. }) if *normal == DVec3::Y && *offset == 0.0 && *radius == 1.0));
+    assert!(
+        matches!(s.groups[0].last(), Some(Primitive::Plane { normal, offset, radius, .. }) if *normal == DVec3::Y && *offset == 0.0 && *radius == 1.0)
+    );
     for t in [0.0, 0.37, 1.0, 2.5, 3.99] {
         let posed = s.at_time(t);
         for (i, (_, c, radius)) in rows.iter().enumerate() {

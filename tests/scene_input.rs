@@ -64,10 +64,7 @@ fn non_positive_radius_is_rejected() {
 
 #[test]
 fn empty_scene_is_rejected() {
-    let e = error_of(&GOOD.replace(
-        "[(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))])]",
-        "[]",
-    ));
+    let e = error_of(&GOOD.replace("[(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))])]", "[]"));
     assert_mentions(&e, &["bad.ron", "groups", "no groups"]);
     let e = error_of(&GOOD.replace("Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))", ""));
     assert_mentions(&e, &["groups[0].primitives", "empty"]);
@@ -116,7 +113,8 @@ fn the_binary_fails_cleanly_and_writes_nothing() {
     let missing = Command::new(bin()).args(["render", "/nonexistent.ron", "-o"]).arg(dir.join("x.png")).output().unwrap();
     assert_eq!(missing.status.code(), Some(1));
     assert!(!dir.join("x.png").exists());
-    let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.path().extension().is_some_and(|x| x != "ron")).collect();
+    let leftovers: Vec<_> =
+        std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.path().extension().is_some_and(|x| x != "ron")).collect();
     assert!(leftovers.is_empty(), "left files behind: {leftovers:?}");
 }
 
@@ -135,7 +133,8 @@ fn bad_motion_and_transparency_are_rejected() {
     assert_mentions(&e, &["bad.ron", "transparency.opacity", "[0, 1]"]);
     // And a good one poses: a keyframed blob moves, an orbiting camera turns.
     let s = Scene::parse(
-        &moving("Keyframes([(0.0, (0.0, 0.0, 0.0)), (2.0, (2.0, 0.0, 0.0))])").replace("resolution: (16, 16))", "resolution: (16, 16), path: Some(Orbit(period: 8.0)))"),
+        &moving("Keyframes([(0.0, (0.0, 0.0, 0.0)), (2.0, (2.0, 0.0, 0.0))])")
+            .replace("resolution: (16, 16))", "resolution: (16, 16), path: Some(Orbit(period: 8.0)))"),
         "good.ron",
     )
     .unwrap();
@@ -220,7 +219,11 @@ fn every_optional_field_takes_its_value_plain_or_as_some() {
         // The Plane case replaces GOOD's groups: drop the originals after the new ones.
         let edit = |to: &str| {
             let text = GOOD.replacen(from, to, 1);
-            if to.contains("Plane(") { text.replacen("    groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))])],\n", "", 1) } else { text }
+            if to.contains("Plane(") {
+                text.replacen("    groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))])],\n", "", 1)
+            } else {
+                text
+            }
         };
         let a = Scene::parse(&edit(plain), "plain.ron").unwrap_or_else(|e| panic!("{field} written plain refused: {e}"));
         let b = Scene::parse(&edit(some), "some.ron").unwrap_or_else(|e| panic!("{field} written as Some(..) refused: {e}"));
@@ -237,11 +240,8 @@ fn every_optional_field_takes_its_value_plain_or_as_some() {
 fn the_optional_fields_tested_are_every_option_in_the_format() {
     let source = std::fs::read_to_string(repo_root().join("src/scene/file.rs")).unwrap();
     let doc = std::fs::read_to_string(repo_root().join("docs/scene-format.md")).unwrap();
-    let mut in_format: Vec<&str> = source
-        .lines()
-        .filter(|l| l.contains(": Option<"))
-        .map(|l| l.trim().trim_start_matches("pub ").split(':').next().unwrap())
-        .collect();
+    let mut in_format: Vec<&str> =
+        source.lines().filter(|l| l.contains(": Option<")).map(|l| l.trim().trim_start_matches("pub ").split(':').next().unwrap()).collect();
     in_format.sort();
     in_format.dedup();
     let mut tested: Vec<&str> = OPTIONAL_FIELDS.iter().map(|c| c.0).collect();

@@ -20,12 +20,7 @@ use common::*;
 const JOB_LIMIT: Duration = Duration::from_secs(240);
 
 fn run(program: &str, args: &[&str]) -> Output {
-    Command::new(program)
-        .args(args)
-        .current_dir(repo_root())
-        .stdin(Stdio::null())
-        .output()
-        .unwrap_or_else(|e| panic!("running {program}: {e}"))
+    Command::new(program).args(args).current_dir(repo_root()).stdin(Stdio::null()).output().unwrap_or_else(|e| panic!("running {program}: {e}"))
 }
 
 fn text(bytes: &[u8]) -> String {
@@ -281,13 +276,9 @@ fn a_resubmitted_array_finishes_what_a_cancelled_task_left(cluster: &Cluster) {
 fn a_bad_shard_fails_its_task_and_writes_nothing(cluster: &Cluster) {
     let listed = scratch("slurm-listed");
     let zero = scratch("slurm-zero");
-    let listed_job =
-        cluster.submit(&listed, "0,5", &["scenes/fig16.ron", "0..2", listed.join("f_####.png").to_str().unwrap(), "--size", "32x32"]);
-    let zero_job = cluster.submit(
-        &zero,
-        "0-1",
-        &["scenes/fig16.ron", "0..2", zero.join("f_####.png").to_str().unwrap(), "--size", "32x32", "--shard", "0/0"],
-    );
+    let listed_job = cluster.submit(&listed, "0,5", &["scenes/fig16.ron", "0..2", listed.join("f_####.png").to_str().unwrap(), "--size", "32x32"]);
+    let zero_job =
+        cluster.submit(&zero, "0-1", &["scenes/fig16.ron", "0..2", zero.join("f_####.png").to_str().unwrap(), "--size", "32x32", "--shard", "0/0"]);
 
     // --array=0,5: task 0 is shard 0 of 2 (frame 0); task 5 has no shard.
     let tasks = cluster.wait(&listed_job, &listed);

@@ -126,21 +126,16 @@ fn the_viewer_plays_ten_thousand_moving_blobs() {
     // index rebuilt for every frame, played under Xvfb.
     let dir = scratch("viewer-particles");
     let scene = dir.join("particles.ron");
-    let generated = Command::new(bin())
-        .args(["generate", "particles", "--count", "10000", "--seed", "1", "--motion", "-o"])
-        .arg(&scene)
-        .output()
-        .unwrap();
+    let generated =
+        Command::new(bin()).args(["generate", "particles", "--count", "10000", "--seed", "1", "--motion", "-o"]).arg(&scene).output().unwrap();
     assert!(generated.status.success(), "generate failed:\n{}", String::from_utf8_lossy(&generated.stderr));
     let x = Xvfb::start();
     let mut shots = Vec::new();
     // Two starting times: the blobs move between them.
     for time in ["0", "1.5"] {
         let shot = dir.join(format!("particles-{time}.png"));
-        let out = view(
-            &x,
-            &[scene.to_str().unwrap(), "--size", "64x48", "--time", time, "--exit-after", "6", "--screenshot", shot.to_str().unwrap()],
-        );
+        let out =
+            view(&x, &[scene.to_str().unwrap(), "--size", "64x48", "--time", time, "--exit-after", "6", "--screenshot", shot.to_str().unwrap()]);
         assert_clean(&out, 6);
         assert!(colours(&shot, (64, 48)) > 50, "the presented image is nearly uniform");
         shots.push(image::open(&shot).unwrap().to_rgb8());
@@ -200,7 +195,20 @@ fn the_viewer_turns_a_molecule_on_its_turntable() {
         let shot = dir.join(format!("1a8o-{time}.png"));
         let out = view(
             &x,
-            &["tests/data/molecules/1A8O.pdb", "--turntable", "4", "--size", "64x48", "--time", time, "--paused", "--exit-after", "3", "--screenshot", shot.to_str().unwrap()],
+            &[
+                "tests/data/molecules/1A8O.pdb",
+                "--turntable",
+                "4",
+                "--size",
+                "64x48",
+                "--time",
+                time,
+                "--paused",
+                "--exit-after",
+                "3",
+                "--screenshot",
+                shot.to_str().unwrap(),
+            ],
         );
         assert_clean(&out, 3);
         assert!(colours(&shot, (64, 48)) > 50, "the presented image is nearly uniform");
@@ -233,7 +241,8 @@ fn decode_xwd(data: &[u8]) -> image::RgbImage {
     image::RgbImage::from_fn(w, h, |px, py| {
         let at = start + py as usize * stride as usize + px as usize * bytes;
         let raw = &data[at..at + bytes];
-        let v = if msb_first { raw.iter().fold(0u32, |v, &b| v << 8 | u32::from(b)) } else { raw.iter().rev().fold(0u32, |v, &b| v << 8 | u32::from(b)) };
+        let v =
+            if msb_first { raw.iter().fold(0u32, |v, &b| v << 8 | u32::from(b)) } else { raw.iter().rev().fold(0u32, |v, &b| v << 8 | u32::from(b)) };
         image::Rgb(masks.map(|m| ((v & m) >> m.trailing_zeros()) as u8))
     })
 }
@@ -248,11 +257,7 @@ struct Session {
 impl Session {
     fn open(args: &[&str]) -> Session {
         let x = Xvfb::start();
-        let mut child = view_command(&x, args)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
+        let mut child = view_command(&x, args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
         let started = std::time::Instant::now();
         let window = loop {
             let out = xdotool(&x, &["search", "--name", "^isomarch"]);

@@ -91,14 +91,7 @@ impl Merge {
         }
         if !outside.is_empty() {
             let named: Vec<String> = outside.iter().take(NAMED).map(|(f, o)| format!("{f} at {o}")).collect();
-            problems.push(format!(
-                "{} frame(s) outside {}..{} ({}{})",
-                outside.len(),
-                range.start,
-                range.end,
-                named.join("; "),
-                more(outside.len())
-            ));
+            problems.push(format!("{} frame(s) outside {}..{} ({}{})", outside.len(), range.start, range.end, named.join("; "), more(outside.len())));
         }
         if !problems.is_empty() {
             bail!("frames {}..{} are not each listed exactly once in the {} input(s): {}", range.start, range.end, self.files, problems.join("; "));

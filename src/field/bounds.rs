@@ -195,4 +195,3 @@ pub(super) fn compact_lin(w: f64, inv_r2: f64, a: f64, x0: f64, len: f64) -> Lin
     }
     k
 }
-

@@ -93,9 +93,8 @@ struct Counts {
 
 impl Counts {
     fn new(gaussians: &[Gaussian]) -> Counts {
-        let (lo, hi) = gaussians.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), g| {
-            (lo.min(g.center), hi.max(g.center))
-        });
+        let (lo, hi) =
+            gaussians.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), g| (lo.min(g.center), hi.max(g.center)));
         let mut r: Vec<f64> = gaussians.iter().map(|g| g.r).filter(|r| *r > 0.0).collect();
         r.sort_by(f64::total_cmp);
         let extent = (hi - lo).max(DVec3::splat(1e-9));
@@ -152,9 +151,8 @@ impl Counts {
                 let (y0, y1) = span(y, ny);
                 for x in 0..nx {
                     let (x0, x1) = span(x, nx);
-                    let sum = s(x1, y1, z1) - s(x0, y1, z1) - s(x1, y0, z1) - s(x1, y1, z0) + s(x0, y0, z1) + s(x0, y1, z0)
-                        + s(x1, y0, z0)
-                        - s(x0, y0, z0);
+                    let sum =
+                        s(x1, y1, z1) - s(x0, y1, z1) - s(x1, y0, z1) - s(x1, y1, z0) + s(x0, y0, z1) + s(x0, y1, z0) + s(x1, y0, z0) - s(x0, y0, z0);
                     most = most.max(sum);
                 }
             }

@@ -74,9 +74,7 @@ struct Closures<S, M, Z, A, C> {
     types: PhantomData<fn(S) -> M>,
 }
 
-impl<S: Copy, M, Z: Fn() -> S, A: FnMut(S, &dyn PrimitiveKind) -> S, C: FnMut(Option<M>, S) -> M> Evaluation
-    for Closures<S, M, Z, A, C>
-{
+impl<S: Copy, M, Z: Fn() -> S, A: FnMut(S, &dyn PrimitiveKind) -> S, C: FnMut(Option<M>, S) -> M> Evaluation for Closures<S, M, Z, A, C> {
     type Sum = S;
     type Max = M;
     fn zero(&self) -> S {
@@ -159,9 +157,7 @@ pub fn field_taylor(field: &Field, o: DVec3, u: DVec3, t0: f64, t1: f64, order: 
                 // Eq. 13-15: asymmetric slopes from the range of f'.
                 Order::Linear => Bound { v: s.value, a_lo: s.min, b_lo: 0.0, a_hi: s.max, b_hi: 0.0, e_hi: 0.0, t_valid: t1 },
                 // Eq. 19: f(t0) + f'(t0) τ + ½ f''_{min/max} τ².
-                Order::Quadratic => {
-                    Bound { v: s.value, a_lo: s.slope, b_lo: 0.5 * s.min, a_hi: s.slope, b_hi: 0.5 * s.max, e_hi: 0.0, t_valid: t1 }
-                }
+                Order::Quadratic => Bound { v: s.value, a_lo: s.slope, b_lo: 0.5 * s.min, a_hi: s.slope, b_hi: 0.5 * s.max, e_hi: 0.0, t_valid: t1 },
             };
             max_bounds(max, g, t1 - t0, quadratic)
         },
@@ -239,7 +235,7 @@ pub fn field_raa(field: &Field, o: DVec3, u: DVec3, ta: f64, tb: f64) -> (f64, f
         field,
         Some(Query::Segment { o, u, t0: ta, t1: tb }),
         || Affine::ZERO,
-        |s, k| s.add(k.raa(o, u, ta, tb)),
+        |s, k| s + k.raa(o, u, ta, tb),
         |max: Option<(f64, f64)>, s| {
             let (a, b) = s.range();
             max.map_or((a, b), |(lo, hi)| (lo.max(a), hi.max(b)))

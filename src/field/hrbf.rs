@@ -155,10 +155,7 @@ impl OnRay {
     fn m(&self, s: f64) -> (f64, f64) {
         let ah = self.alpha * self.h;
         let s2 = s * s;
-        (
-            ah * s * (2.0 * s2 + 3.0) * (s2 + 1.0) - 3.0 * self.c0_hat * s + 3.0 * self.c1,
-            ah * (10.0 * s2 * s2 + 15.0 * s2 + 3.0) - 3.0 * self.c0_hat,
-        )
+        (ah * s * (2.0 * s2 + 3.0) * (s2 + 1.0) - 3.0 * self.c0_hat * s + 3.0 * self.c1, ah * (10.0 * s2 * s2 + 15.0 * s2 + 3.0) - 3.0 * self.c0_hat)
     }
 
     /// The roots of g''' in `(xa, xb)`, as x, each with the most g'' there
@@ -262,7 +259,9 @@ impl OnRay {
         let a = self.alpha.abs();
         let rho_max = self.rho(xa).max(self.rho(xb));
         // (h/ρ)² |x/ρ| ≤ 2/(3√3).
-        a * self.h + 3.0 * 0.384_900_179_459_750_5 * self.c1.abs() + 3.0 * self.c0_hat.abs()
+        a * self.h
+            + 3.0 * 0.384_900_179_459_750_5 * self.c1.abs()
+            + 3.0 * self.c0_hat.abs()
             + 2.0 * self.dp(xa).abs().max(self.dp(xb).abs())
             + 2.0 * a * rho_max
     }
@@ -278,9 +277,21 @@ fn d1_range_from(ga: f64, gb: f64, len: f64, m: f64, mm: f64) -> (f64, f64) {
     }
     // Upper: the lines cross at τ* where ga + M τ = gb - m (len - τ).
     let tau_hi = ((gb - ga - m * len) / (mm - m)).clamp(0.0, len);
-    let hi = if mm < 0.0 { ga } else if m > 0.0 { gb } else { ga + mm * tau_hi };
+    let hi = if mm < 0.0 {
+        ga
+    } else if m > 0.0 {
+        gb
+    } else {
+        ga + mm * tau_hi
+    };
     let tau_lo = ((mm * len - (gb - ga)) / (mm - m)).clamp(0.0, len);
-    let lo = if m > 0.0 { ga } else if mm < 0.0 { gb } else { ga + m * tau_lo };
+    let lo = if m > 0.0 {
+        ga
+    } else if mm < 0.0 {
+        gb
+    } else {
+        ga + m * tau_lo
+    };
     (lo.min(lo_end), hi.max(hi_end))
 }
 
@@ -372,10 +383,10 @@ impl PrimitiveKind for HrbfPrim {
         let g = OnRay::new(self, o, u, ta);
         let (xa, xb) = (g.x0, g.x0 + (tb - ta));
         let x = Affine { x0: 0.5 * (xa + xb), x1: 0.5 * (xb - xa), e: 0.0 };
-        let y = x.mul(x).add(Affine { x0: g.h2, x1: 0.0, e: 0.0 });
+        let y = x * x + Affine { x0: g.h2, x1: 0.0, e: 0.0 };
         let rho = sqrt_affine(y, g.h2);
-        let p = y.scale(g.alpha).add(x.scale(3.0 * g.c1)).add(Affine { x0: 3.0 * g.c0, x1: 0.0, e: 0.0 });
-        rho.mul(p)
+        let p = y.scale(g.alpha) + x.scale(3.0 * g.c1) + Affine { x0: 3.0 * g.c0, x1: 0.0, e: 0.0 };
+        rho * p
     }
 }
 
@@ -518,7 +529,12 @@ mod tests {
             let width = (k2.max - k2.min).max(1e-9);
             assert!(k2.min <= d2lo + 1e-9 * width && k2.max >= d2hi - 1e-9 * width, "range [{}, {}] misses sampled [{d2lo}, {d2hi}]", k2.min, k2.max);
             if g.h > 1e-2 {
-                assert!(k2.min >= d2lo - 0.01 * width && k2.max <= d2hi + 0.01 * width, "range [{}, {}] wider than sampled [{d2lo}, {d2hi}]", k2.min, k2.max);
+                assert!(
+                    k2.min >= d2lo - 0.01 * width && k2.max <= d2hi + 0.01 * width,
+                    "range [{}, {}] wider than sampled [{d2lo}, {d2hi}]",
+                    k2.min,
+                    k2.max
+                );
             }
         }
     }

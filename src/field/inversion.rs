@@ -114,7 +114,8 @@ mod tests {
     use crate::scene::Scene;
 
     fn scene(blobs: &str) -> Scene {
-        Scene::parse(&format!("Scene(camera: (eye: (0.0, 0.0, 9.0), target: (0.0, 0.0, 0.0)), iso: 1.0, groups: [(primitives: [{blobs}])])"), "t").unwrap()
+        Scene::parse(&format!("Scene(camera: (eye: (0.0, 0.0, 9.0), target: (0.0, 0.0, 0.0)), iso: 1.0, groups: [(primitives: [{blobs}])])"), "t")
+            .unwrap()
     }
 
     #[test]

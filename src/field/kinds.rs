@@ -138,7 +138,7 @@ impl PrimitiveKind for PointPrim {
             return compact_raa(&kernel, kernel.inv, h2, xa, xb);
         }
         let x = Affine { x0: 0.5 * (xa + xb), x1: 0.5 * (xb - xa), e: 0.0 };
-        let y = x.mul(x).add(Affine { x0: h2, x1: 0.0, e: 0.0 }).scale(kernel.inv);
+        let y = (x * x + Affine { x0: h2, x1: 0.0, e: 0.0 }).scale(kernel.inv);
         exp_neg(y, kernel.inv * h2).scale(kernel.weight)
     }
 }

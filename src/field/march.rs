@@ -4,12 +4,12 @@
 
 use glam::DVec3;
 
+use super::Field;
 use super::bound::{lower_root, next_root};
 use super::fold::{field_bound, field_linear, field_raa};
 use super::inversion::{Inversion, OVER_RELAXATION};
-use crate::layout::{DYNAMOL_EPSILON, DYNAMOL_STEPS};
-use super::Field;
 use super::quad::QuadSettings;
+use crate::layout::{DYNAMOL_EPSILON, DYNAMOL_STEPS};
 use crate::method::Method;
 use crate::settings::{Bracket, Refinement};
 

@@ -126,8 +126,7 @@ pub struct Field {
 impl Field {
     pub fn new(scene: &Scene) -> Field {
         let groups: Vec<Vec<PrimEval>> = scene.groups.iter().map(|g| g.iter().map(|p| PrimEval::new(p, &scene.bounds)).collect()).collect();
-        let order: Vec<(u32, u32)> =
-            groups.iter().enumerate().flat_map(|(g, prims)| (0..prims.len()).map(move |i| (g as u32, i as u32))).collect();
+        let order: Vec<(u32, u32)> = groups.iter().enumerate().flat_map(|(g, prims)| (0..prims.len()).map(move |i| (g as u32, i as u32))).collect();
         // Like the GPU's index (render::index::GridSpec::for_scene).
         let grid = if scene.max_needs_every_group() { None } else { Grid::new(&groups.iter().flatten().collect::<Vec<_>>()) };
         Field { groups, iso: scene.iso, order, grid }

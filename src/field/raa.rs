@@ -22,18 +22,8 @@ pub struct Affine {
 impl Affine {
     pub const ZERO: Affine = Affine { x0: 0.0, x1: 0.0, e: 0.0 };
 
-    pub fn add(self, o: Affine) -> Affine {
-        Affine { x0: self.x0 + o.x0, x1: self.x1 + o.x1, e: self.e + o.e }
-    }
     pub fn scale(self, c: f64) -> Affine {
         Affine { x0: c * self.x0, x1: c * self.x1, e: c.abs() * self.e }
-    }
-    pub fn mul(self, y: Affine) -> Affine {
-        Affine {
-            x0: self.x0 * y.x0 + 0.5 * self.x1 * y.x1,
-            x1: self.x0 * y.x1 + y.x0 * self.x1,
-            e: 0.5 * (self.x1 * y.x1).abs() + (self.x0.abs() + self.x1.abs()) * y.e + (y.x0.abs() + y.x1.abs()) * self.e + self.e * y.e,
-        }
     }
     pub fn range(&self) -> (f64, f64) {
         let r = self.x1.abs() + self.e;
@@ -44,10 +34,31 @@ impl Affine {
     }
 }
 
+/// Sums of affine forms: their terms and their errors add.
+impl std::ops::Add for Affine {
+    type Output = Affine;
+    fn add(self, o: Affine) -> Affine {
+        Affine { x0: self.x0 + o.x0, x1: self.x1 + o.x1, e: self.e + o.e }
+    }
+}
+
+/// Products: the quadratic term of ε² splits into its mean (1/2) and
+/// an error of 1/2, plus the cross terms with the errors.
+impl std::ops::Mul for Affine {
+    type Output = Affine;
+    fn mul(self, y: Affine) -> Affine {
+        Affine {
+            x0: self.x0 * y.x0 + 0.5 * self.x1 * y.x1,
+            x1: self.x0 * y.x1 + y.x0 * self.x1,
+            e: 0.5 * (self.x1 * y.x1).abs() + (self.x0.abs() + self.x1.abs()) * y.e + (y.x0.abs() + y.x1.abs()) * self.e + self.e * y.e,
+        }
+    }
+}
+
 /// `w (a - x²/R²)³` for `x = x0 + x1 ε` on the clipped support.
 fn compact_poly(w: f64, inv_r2: f64, a: f64, x: Affine) -> Affine {
-    let q = x.mul(x).scale(-inv_r2).add(Affine { x0: a, x1: 0.0, e: 0.0 });
-    q.mul(q).mul(q).scale(w)
+    let q = (x * x).scale(-inv_r2) + Affine { x0: a, x1: 0.0, e: 0.0 };
+    (q * q * q).scale(w)
 }
 
 /// The compact kernel in x on `x ∈ [xa, xb]` (x = t - tc, so dx/dt = 1).
@@ -82,4 +93,3 @@ pub fn exp_neg(y: Affine, y_min: f64) -> Affine {
     let delta = 0.5 * (top - bottom);
     Affine { x0: s * y.x0 + zeta, x1: s * y.x1, e: s.abs() * y.e + delta }
 }
-

@@ -66,10 +66,7 @@ impl Buffer {
                 ctx.info.max_storage_buffer_range
             );
         }
-        let info = vk::BufferCreateInfo::default()
-            .size(size)
-            .usage(usage)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let info = vk::BufferCreateInfo::default().size(size).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
         // SAFETY: valid device and create info.
         let handle = unsafe { ctx.device.create_buffer(&info, None) }.with_context(|| format!("creating buffer {name}"))?;
         // SAFETY: `handle` was just created on this device.
@@ -111,10 +108,7 @@ impl Buffer {
     }
 
     fn mapped(&mut self) -> Result<&mut [u8]> {
-        self.allocation
-            .as_mut()
-            .and_then(|a| a.mapped_slice_mut())
-            .ok_or_else(|| anyhow!("buffer memory is not host-visible"))
+        self.allocation.as_mut().and_then(|a| a.mapped_slice_mut()).ok_or_else(|| anyhow!("buffer memory is not host-visible"))
     }
 
     /// Writes `data` starting at element `first` (in units of `T`).

@@ -62,7 +62,9 @@ pub struct Context {
     allocator: Mutex<Option<Allocator>>,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     messages: Arc<Mutex<Vec<String>>>,
-    // Boxed so its address, given to the debug callback, never moves.
+    // Boxed so its address, given to the debug callback, never moves (the
+    // callback reads an Arc through it: the allocation is not redundant).
+    #[allow(clippy::redundant_allocation)]
     _callback_sink: Option<Box<Arc<Mutex<Vec<String>>>>>,
     hung: AtomicBool,
     /// Pipelines are created through this cache, loaded from and saved to
@@ -78,9 +80,8 @@ fn validation_requested(options: &ContextOptions) -> bool {
 fn load_entry() -> Result<ash::Entry> {
     // SAFETY: loading the system Vulkan loader; its initialisation has no
     // preconditions beyond being a well-formed shared library.
-    unsafe { ash::Entry::load() }.map_err(|e| {
-        anyhow!("cannot load the Vulkan loader (libvulkan.so.1): {e}; install libvulkan1 and a driver such as mesa-vulkan-drivers")
-    })
+    unsafe { ash::Entry::load() }
+        .map_err(|e| anyhow!("cannot load the Vulkan loader (libvulkan.so.1): {e}; install libvulkan1 and a driver such as mesa-vulkan-drivers"))
 }
 
 unsafe extern "system" fn debug_callback(
@@ -97,11 +98,8 @@ unsafe extern "system" fn debug_callback(
     // the messenger; `data` is valid for the duration of the callback.
     let (sink, message) = unsafe {
         let sink = &*(user as *const Arc<Mutex<Vec<String>>>);
-        let message = if (*data).p_message.is_null() {
-            String::from("(no message)")
-        } else {
-            CStr::from_ptr((*data).p_message).to_string_lossy().into_owned()
-        };
+        let message =
+            if (*data).p_message.is_null() { String::from("(no message)") } else { CStr::from_ptr((*data).p_message).to_string_lossy().into_owned() };
         (sink, message)
     };
     if let Ok(mut messages) = sink.lock() {
@@ -152,16 +150,13 @@ fn device_rank(kind: vk::PhysicalDeviceType) -> u32 {
 
 fn create_instance(entry: &ash::Entry, validation: bool, present: Option<raw_window_handle::RawDisplayHandle>) -> Result<ash::Instance> {
     let app_name = CString::new("isomarch")?;
-    let app = vk::ApplicationInfo::default()
-        .application_name(&app_name)
-        .application_version(1)
-        .engine_name(&app_name)
-        .api_version(vk::API_VERSION_1_2);
+    let app =
+        vk::ApplicationInfo::default().application_name(&app_name).application_version(1).engine_name(&app_name).api_version(vk::API_VERSION_1_2);
     let mut layers = Vec::new();
     let mut extensions = Vec::new();
     if let Some(display) = present {
-        let needed = ash_window::enumerate_required_extensions(display)
-            .context("this display has no Vulkan surface extension (is it X11 or Wayland?)")?;
+        let needed =
+            ash_window::enumerate_required_extensions(display).context("this display has no Vulkan surface extension (is it X11 or Wayland?)")?;
         extensions.extend_from_slice(needed);
     }
     if validation {
@@ -174,10 +169,7 @@ fn create_instance(entry: &ash::Entry, validation: bool, present: Option<raw_win
         layers.push(VALIDATION_LAYER.as_ptr());
         extensions.push(ash::ext::debug_utils::NAME.as_ptr());
     }
-    let info = vk::InstanceCreateInfo::default()
-        .application_info(&app)
-        .enabled_layer_names(&layers)
-        .enabled_extension_names(&extensions);
+    let info = vk::InstanceCreateInfo::default().application_info(&app).enabled_layer_names(&layers).enabled_extension_names(&extensions);
     // SAFETY: all pointers in `info` outlive the call.
     unsafe { entry.create_instance(&info, None) }.context("creating the Vulkan instance (is a Vulkan driver installed?)")
 }
@@ -208,9 +200,7 @@ impl Context {
             let sink = Box::new(Arc::clone(&messages));
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-                .message_severity(
-                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
-                )
+                .message_severity(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR)
                 .message_type(
                     vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
                         | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
@@ -219,8 +209,7 @@ impl Context {
                 .pfn_user_callback(Some(debug_callback))
                 .user_data(&*sink as *const Arc<Mutex<Vec<String>>> as *mut c_void);
             // SAFETY: the sink box lives in the Context, past the messenger.
-            let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }
-                .context("creating the validation messenger")?;
+            let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }.context("creating the validation messenger")?;
             debug = Some((loader, messenger));
             callback_sink = Some(sink);
         }
@@ -231,12 +220,10 @@ impl Context {
         let chosen = match &options.device {
             Some(sel) => {
                 let by_index = sel.parse::<usize>().ok().filter(|&i| i < pds.len());
-                by_index
-                    .or_else(|| infos.iter().position(|d| d.name.to_lowercase().contains(&sel.to_lowercase())))
-                    .ok_or_else(|| {
-                        let names: Vec<String> = infos.iter().map(|d| format!("{}: {}", d.index, d.name)).collect();
-                        anyhow!("--device {sel:?} matches no Vulkan device; available: {}", names.join(", "))
-                    })?
+                by_index.or_else(|| infos.iter().position(|d| d.name.to_lowercase().contains(&sel.to_lowercase()))).ok_or_else(|| {
+                    let names: Vec<String> = infos.iter().map(|d| format!("{}: {}", d.index, d.name)).collect();
+                    anyhow!("--device {sel:?} matches no Vulkan device; available: {}", names.join(", "))
+                })?
             }
             None => (0..pds.len())
                 .min_by_key(|&i| {
@@ -257,9 +244,7 @@ impl Context {
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
         let device_extensions = if options.present.is_some() { vec![ash::khr::swapchain::NAME.as_ptr()] } else { vec![] };
-        let device_info = vk::DeviceCreateInfo::default()
-            .queue_create_infos(&queue_info)
-            .enabled_extension_names(&device_extensions);
+        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info).enabled_extension_names(&device_extensions);
         // SAFETY: valid physical device and create info.
         let device = unsafe { instance.create_device(physical_device, &device_info, None) }
             .with_context(|| format!("creating a logical device on {}", info.name))?;

@@ -75,10 +75,7 @@ impl ComputePipeline {
                 this.set_layout = device
                     .create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings), None)
                     .context("creating descriptor set layout")?;
-                let ranges = [vk::PushConstantRange::default()
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
-                    .offset(0)
-                    .size(push_constant_bytes)];
+                let ranges = [vk::PushConstantRange::default().stage_flags(vk::ShaderStageFlags::COMPUTE).offset(0).size(push_constant_bytes)];
                 let set_layouts = [this.set_layout];
                 let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
                 if push_constant_bytes > 0 {
@@ -99,10 +96,8 @@ impl ComputePipeline {
                     .name(c"main")
                     .specialization_info(&spec);
                 let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(this.layout)];
-                this.pipeline = device
-                    .create_compute_pipelines(ctx.pipeline_cache, &info, None)
-                    .map_err(|(_, e)| e)
-                    .context("creating compute pipeline")?[0];
+                this.pipeline =
+                    device.create_compute_pipelines(ctx.pipeline_cache, &info, None).map_err(|(_, e)| e).context("creating compute pipeline")?[0];
 
                 let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
                 for &ty in &types {
@@ -116,9 +111,7 @@ impl ComputePipeline {
                     .context("creating descriptor pool")?;
                 let set_layouts = [this.set_layout];
                 this.set = device
-                    .allocate_descriptor_sets(
-                        &vk::DescriptorSetAllocateInfo::default().descriptor_pool(this.pool).set_layouts(&set_layouts),
-                    )
+                    .allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(this.pool).set_layouts(&set_layouts))
                     .context("allocating descriptor set")?[0];
             }
             Ok(())
@@ -135,10 +128,8 @@ impl ComputePipeline {
         if buffers.len() != self.types.len() {
             bail!("pipeline has {} bindings, {} buffers given", self.types.len(), buffers.len());
         }
-        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
-            .iter()
-            .map(|b| [vk::DescriptorBufferInfo { buffer: b.handle, offset: 0, range: vk::WHOLE_SIZE }])
-            .collect();
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> =
+            buffers.iter().map(|b| [vk::DescriptorBufferInfo { buffer: b.handle, offset: 0, range: vk::WHOLE_SIZE }]).collect();
         let views: Vec<[vk::BufferView; 1]> = buffers.iter().map(|b| [b.view]).collect();
         let mut writes = Vec::with_capacity(buffers.len());
         for (i, &ty) in self.types.iter().enumerate() {

@@ -52,13 +52,7 @@ pub struct Presenter {
 impl Presenter {
     /// Creates the surface of `window` and a swapchain of `size` pixels.
     /// `ctx` must have been opened with `ContextOptions::present`.
-    pub fn new(
-        ctx: &Arc<Context>,
-        display: RawDisplayHandle,
-        window: RawWindowHandle,
-        size: (u32, u32),
-        timeout: Duration,
-    ) -> Result<Presenter> {
+    pub fn new(ctx: &Arc<Context>, display: RawDisplayHandle, window: RawWindowHandle, size: (u32, u32), timeout: Duration) -> Result<Presenter> {
         // SAFETY: the handles come from a live window that outlives the
         // presenter (the viewer drops the presenter before the window).
         let surface = unsafe { ash_window::create_surface(ctx.entry(), &ctx.instance, display, window, None) }
@@ -77,9 +71,7 @@ impl Presenter {
                 bail!("{}'s compute queue cannot present to this window", ctx.info.name);
             }
             let pool = d.create_command_pool(
-                &vk::CommandPoolCreateInfo::default()
-                    .queue_family_index(ctx.queue_family)
-                    .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
+                &vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
                 None,
             )?;
             let cmd = d.allocate_command_buffers(
@@ -232,10 +224,7 @@ impl Presenter {
         }
         self.wait_idle_frame()?;
         let bgra = matches!(self.format, vk::Format::B8G8R8A8_UNORM | vk::Format::B8G8R8A8_SRGB);
-        let pixels: Vec<[u8; 4]> = rgb
-            .chunks_exact(3)
-            .map(|c| if bgra { [c[2], c[1], c[0], 255] } else { [c[0], c[1], c[2], 255] })
-            .collect();
+        let pixels: Vec<[u8; 4]> = rgb.chunks_exact(3).map(|c| if bgra { [c[2], c[1], c[0], 255] } else { [c[0], c[1], c[2], 255] }).collect();
         let staging = self.staging.as_mut().ok_or_else(|| anyhow!("no swapchain"))?;
         staging.write(0, &pixels)?;
         let staging = staging.handle;
@@ -293,11 +282,8 @@ impl Presenter {
             let stages = [vk::PipelineStageFlags::TRANSFER];
             let signals = [self.copied[index as usize]];
             let cmds = [self.cmd];
-            let submit = vk::SubmitInfo::default()
-                .wait_semaphores(&waits)
-                .wait_dst_stage_mask(&stages)
-                .command_buffers(&cmds)
-                .signal_semaphores(&signals);
+            let submit =
+                vk::SubmitInfo::default().wait_semaphores(&waits).wait_dst_stage_mask(&stages).command_buffers(&cmds).signal_semaphores(&signals);
             d.queue_submit(self.ctx.queue, &[submit], self.fence).context("submitting the copy to the window")?;
             let swapchains = [self.swapchain];
             let indices = [index];

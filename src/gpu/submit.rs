@@ -55,19 +55,13 @@ impl Submitter {
                 .context("creating command pool")?;
             let cmd = d
                 .allocate_command_buffers(
-                    &vk::CommandBufferAllocateInfo::default()
-                        .command_pool(pool)
-                        .level(vk::CommandBufferLevel::PRIMARY)
-                        .command_buffer_count(1),
+                    &vk::CommandBufferAllocateInfo::default().command_pool(pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1),
                 )
                 .context("allocating command buffer")?[0];
             let fence = d.create_fence(&vk::FenceCreateInfo::default(), None).context("creating fence")?;
             let queries = if ctx.info.timestamps {
-                d.create_query_pool(
-                    &vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2),
-                    None,
-                )
-                .context("creating timestamp query pool")?
+                d.create_query_pool(&vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2), None)
+                    .context("creating timestamp query pool")?
             } else {
                 vk::QueryPool::null()
             };
@@ -81,19 +75,13 @@ impl Submitter {
     ///
     /// On a passed deadline the context is marked hung (nothing is freed
     /// afterwards) and [`GpuError::DeadlineExceeded`] is returned.
-    pub fn run(
-        &mut self,
-        deadline: Instant,
-        timeout_total: Duration,
-        record: impl FnOnce(&ash::Device, vk::CommandBuffer),
-    ) -> Result<Option<f64>> {
+    pub fn run(&mut self, deadline: Instant, timeout_total: Duration, record: impl FnOnce(&ash::Device, vk::CommandBuffer)) -> Result<Option<f64>> {
         let d = &self.ctx.device;
         let cmd = self.cmd;
         // SAFETY: the previous submission (if any) was waited for, so the
         // command buffer and fence are free to reset.
         unsafe {
-            d.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())
-                .map_err(|e| map_vk(e, "resetting a command buffer"))?;
+            d.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).map_err(|e| map_vk(e, "resetting a command buffer"))?;
             d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))
                 .map_err(|e| map_vk(e, "beginning a command buffer"))?;
             let timed = self.queries != vk::QueryPool::null();

@@ -87,10 +87,10 @@ impl MoleculeOptions {
         if !(self.iso.is_finite() && self.iso > 0.0) {
             bail!("--iso must be positive, got {}", self.iso);
         }
-        if let Some(t) = self.turntable {
-            if !(t.is_finite() && t > 0.0) {
-                bail!("--turntable must be a positive number of seconds per turn, got {t}");
-            }
+        if let Some(t) = self.turntable
+            && !(t.is_finite() && t > 0.0)
+        {
+            bail!("--turntable must be a positive number of seconds per turn, got {t}");
         }
         Ok(())
     }
@@ -137,7 +137,8 @@ pub fn scene_text(m: &Molecule, o: &MoleculeOptions) -> Result<(String, Notes)> 
     }
     let mut notes = Notes::default();
     if !unknown.is_empty() {
-        let list: Vec<String> = unknown.iter().map(|(e, (line, n))| format!("{e} ({n} atom{}, first at line {line})", if *n == 1 { "" } else { "s" })).collect();
+        let list: Vec<String> =
+            unknown.iter().map(|(e, (line, n))| format!("{e} ({n} atom{}, first at line {line})", if *n == 1 { "" } else { "s" })).collect();
         notes.warnings.push(format!(
             "{}: no van der Waals radius for {}: drawn with the fallback radius {} Å",
             m.source,

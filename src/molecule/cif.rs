@@ -149,10 +149,10 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
                     continue;
                 }
             }
-            if let Some(a) = alt_col.map(|c| row[c].s).filter(|a| !missing(a)) {
-                if *alt.get_or_insert(a) != a {
-                    continue;
-                }
+            if let Some(a) = alt_col.map(|c| row[c].s).filter(|a| !missing(a))
+                && *alt.get_or_insert(a) != a
+            {
+                continue;
             }
             let x = number(row[cx].s, "Cartn_x", file, row[cx].line)?;
             let y = number(row[cy].s, "Cartn_y", file, row[cy].line)?;

@@ -86,10 +86,10 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
             ));
         }
         let residue_number: Option<i64> = line[0..5].trim().parse().ok();
-        if let (Some(r), Some(last)) = (residue_number, last_residue) {
-            if r < last {
-                chain += 1;
-            }
+        if let (Some(r), Some(last)) = (residue_number, last_residue)
+            && r < last
+        {
+            chain += 1;
         }
         if residue_number.is_some() {
             last_residue = residue_number;

@@ -14,11 +14,11 @@
 //! Every problem is one line naming the file and, where there is one, the
 //! line: [`MoleculeError`]. Reading never writes anything.
 
+pub mod build;
 pub mod cif;
 pub mod elements;
 pub mod gro;
 pub mod pdb;
-pub mod build;
 
 use std::io::Read as _;
 use std::path::Path;

@@ -17,7 +17,7 @@ use super::{Atom, Molecule, MoleculeError, element_case, elements, number};
 /// when they do not fall on character boundaries (non-ASCII text).
 fn cols(line: &str, a: usize, b: usize) -> Option<&str> {
     let end = b.min(line.len());
-    if a - 1 >= end {
+    if a > end {
         return Some("");
     }
     line.get(a - 1..end)

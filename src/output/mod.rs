@@ -22,9 +22,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let name = path.file_name().with_context(|| format!("{} has no file name", path.display()))?;
     let tmp = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
-    let result = std::fs::write(&tmp, bytes)
-        .and_then(|()| std::fs::rename(&tmp, path))
-        .with_context(|| format!("writing {}", path.display()));
+    let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path)).with_context(|| format!("writing {}", path.display()));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
@@ -157,9 +155,7 @@ pub fn exr_bytes(frame: &Frame, aovs: &[Aov]) -> Result<Vec<u8>> {
 /// `rgb`, then the AOVs.
 fn exr_layers(frame: &Frame, rgb: bool, aovs: &[Aov]) -> Result<Vec<u8>> {
     use exr::prelude::*;
-    let channel = |name: &str, f: &dyn Fn(&GpuResult) -> f32| {
-        AnyChannel::new(name, FlatSamples::F32(frame.pixels.iter().map(f).collect()))
-    };
+    let channel = |name: &str, f: &dyn Fn(&GpuResult) -> f32| AnyChannel::new(name, FlatSamples::F32(frame.pixels.iter().map(f).collect()));
     let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
     if rgb {
         for (i, name) in ["R", "G", "B"].iter().enumerate() {

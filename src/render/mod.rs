@@ -15,12 +15,12 @@ use ash::vk;
 
 use crate::field::inversion::Inversion;
 use crate::field::{Field, PrimEval};
-use crate::settings::{QuadSettings, Refinement};
 use crate::gpu::{Buffer, ComputePipeline, Context, Submitter};
-use crate::layout::{self, TexelFormat, GpuBound, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuResult, GpuRay};
+use crate::layout::{self, GpuBound, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuRay, GpuResult, TexelFormat};
 use crate::method::Method;
-use index::{GridSpec, IndexStats};
 use crate::scene::{self, Primitive, Scene};
+use crate::settings::{QuadSettings, Refinement};
+use index::{GridSpec, IndexStats};
 
 /// SPIR-V of the march kernel, built by build.rs.
 const MARCH_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march.spv"));
@@ -146,7 +146,6 @@ mod tests {
         assert!(format!("{}", slice_steps(cost(most + 1), 4).unwrap_err()).contains("overlap in one place"));
     }
 }
-
 
 /// What the march of a batch of rays produced.
 pub struct MarchOutput {
@@ -275,12 +274,7 @@ fn primitives_with_radii(scene: &Scene, radii: &[Option<f64>]) -> Vec<GpuPrimiti
                 (None, Primitive::Hrbf { beta, .. }) => (v4(beta, 0.0), 0.0),
                 (None, _) => ([0.0; 4], 0.0),
             };
-            out.push(GpuPrimitive {
-                a,
-                b,
-                c: [c0 as f32, radius as f32, 0.0, 0.0],
-                ids: [kind, gi as u32, colors.next().unwrap_or(0), 0],
-            });
+            out.push(GpuPrimitive { a, b, c: [c0 as f32, radius as f32, 0.0, 0.0], ids: [kind, gi as u32, colors.next().unwrap_or(0), 0] });
         }
     }
     out
@@ -298,18 +292,8 @@ fn globals(scene: &Scene, growth: f64, quad: QuadSettings, grid: Option<&GridSpe
     let rgb = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
     let field = Field::new(scene);
     GpuGlobals {
-        march: [
-            scene.iso as f32,
-            scene.marching.min_step as f32,
-            scene.refine_tolerance() as f32,
-            field.lipschitz() as f32,
-        ],
-        sizes: [
-            scene.primitive_count() as u32,
-            scene.groups.len() as u32,
-            scene.lights.len() as u32,
-            scene.marching.max_steps,
-        ],
+        march: [scene.iso as f32, scene.marching.min_step as f32, scene.refine_tolerance() as f32, field.lipschitz() as f32],
+        sizes: [scene.primitive_count() as u32, scene.groups.len() as u32, scene.lights.len() as u32, scene.marching.max_steps],
         tuning: [
             growth as f32,
             validity_floor as f32,
@@ -323,9 +307,7 @@ fn globals(scene: &Scene, growth: f64, quad: QuadSettings, grid: Option<&GridSpe
             s
         },
         ambient: rgb(scene.ambient),
-        material: scene.transparency.map_or([0.0; 4], |t| {
-            [t.absorption.x as f32, t.absorption.y as f32, t.absorption.z as f32, t.opacity as f32]
-        }),
+        material: scene.transparency.map_or([0.0; 4], |t| [t.absorption.x as f32, t.absorption.y as f32, t.absorption.z as f32, t.opacity as f32]),
         grid: grid.map_or([0.0; 4], |g| [g.origin.x as f32, g.origin.y as f32, g.origin.z as f32, g.cell as f32]),
         grid_dims: grid.map_or([0; 4], |g| [g.dims[0], g.dims[1], g.dims[2], g.lists_per_group as u32]),
         inversion: Inversion::of_field(&field).map_or([0.0; 4], |i| [i.r_ref as f32, i.s as f32, i.ln_w as f32, i.ln_floor as f32]),
@@ -533,9 +515,11 @@ impl Renderer {
     /// data is uploaded again, and the pipelines are kept.
     pub fn set_scene(&mut self, scene: &Scene) -> Result<()> {
         let same_shape = scene.groups.len() == self.scene.groups.len()
-            && scene.groups.iter().zip(&self.scene.groups).all(|(a, b)| {
-                a.len() == b.len() && a.iter().zip(b).all(|(p, q)| std::mem::discriminant(p) == std::mem::discriminant(q))
-            });
+            && scene
+                .groups
+                .iter()
+                .zip(&self.scene.groups)
+                .all(|(a, b)| a.len() == b.len() && a.iter().zip(b).all(|(p, q)| std::mem::discriminant(p) == std::mem::discriminant(q)));
         if !same_shape {
             bail!("set_scene takes the same scene at another time; {} has different primitives", scene.source);
         }
@@ -643,10 +627,10 @@ impl Renderer {
     pub fn probe_bounds(&mut self, method: Method, options: MarchOptions, queries: &[GpuRay]) -> Result<Vec<GpuBound>> {
         // One probe is one fold, not sliced: with the index, only as long
         // as a step's interval, so that it stays within the loop budget.
-        if let Some(g) = &self.grid {
-            if let Some(q) = queries.iter().find(|q| f64::from(q.d[3] - q.o[3]) > g.window) {
-                bail!("a probe query over [{}, {}] is longer than a step's {} with the spatial index", q.o[3], q.d[3], g.window);
-            }
+        if let Some(g) = &self.grid
+            && let Some(q) = queries.iter().find(|q| f64::from(q.d[3] - q.o[3]) > g.window)
+        {
+            bail!("a probe query over [{}, {}] is longer than a step's {} with the spatial index", q.o[3], q.d[3], g.window);
         }
         let deadline = Instant::now() + self.timeout;
         let handles = self.pipeline(EntryPoint::BoundsProbe, method, &options)?;
@@ -664,13 +648,7 @@ impl Renderer {
     /// each tile in slices until every ray is done, all within
     /// `self.timeout`. `progress` gets the number of rays done after each
     /// tile.
-    pub fn march(
-        &mut self,
-        method: Method,
-        options: MarchOptions,
-        rays: &[GpuRay],
-        mut progress: impl FnMut(usize),
-    ) -> Result<MarchOutput> {
+    pub fn march(&mut self, method: Method, options: MarchOptions, rays: &[GpuRay], mut progress: impl FnMut(usize)) -> Result<MarchOutput> {
         let deadline = Instant::now() + self.timeout;
         let handles = self.pipeline(EntryPoint::March, method, &options)?;
         self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad, self.grid.as_ref())])?;
@@ -678,7 +656,9 @@ impl Renderer {
             Inversion::of_field(&Field::new(&self.scene)).map_err(|e| anyhow::anyhow!("{}: {e}", self.scene.source))?;
         }
         if (options.transparent || options.secondary) && matches!(method, Method::LinearBisection | Method::Raa) {
-            bail!("{method} marches opaque scenes only: its bisection looks for a first entering crossing; use an Algorithm 1 method for transparency, reflection and refraction");
+            bail!(
+                "{method} marches opaque scenes only: its bisection looks for a first entering crossing; use an Algorithm 1 method for transparency, reflection and refraction"
+            );
         }
         let mut results = Vec::with_capacity(rays.len());
         let mut crossings = Vec::new();

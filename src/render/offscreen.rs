@@ -8,8 +8,8 @@ use anyhow::Result;
 use serde::Serialize;
 
 use super::index::IndexStats;
-use super::{MarchOptions, Renderer};
 use super::rays::camera_rays;
+use super::{MarchOptions, Renderer};
 use crate::gpu::Context;
 use crate::method::Method;
 use crate::output::{self, Aov, FileFormat, Frame, MarchStats};
@@ -36,19 +36,7 @@ impl RenderJob {
     /// A job that writes only the shaded image to `output`, at `width` x
     /// `height` with `method`, within `timeout`.
     pub fn new(scene: Scene, method: Method, (width, height): (u32, u32), output: PathBuf, timeout: Duration) -> RenderJob {
-        RenderJob {
-            scene,
-            method,
-            width,
-            height,
-            output,
-            heatmap: None,
-            steps_max: None,
-            aovs: vec![],
-            aov_output: None,
-            stats: None,
-            timeout,
-        }
+        RenderJob { scene, method, width, height, output, heatmap: None, steps_max: None, aovs: vec![], aov_output: None, stats: None, timeout }
     }
 }
 
@@ -126,19 +114,9 @@ pub fn pixel_stats(out: &super::MarchOutput, pixels: &[Option<u32>]) -> MarchSta
 /// (transparency with an index of refraction) is traced through its
 /// reflections and refractions (`optics::trace`): each pixel's colour is the
 /// traced one, and its steps and evaluations count every ray spawned for it.
-pub fn march_frame(
-    renderer: &mut Renderer,
-    method: Method,
-    options: MarchOptions,
-    rays: &[crate::layout::GpuRay],
-) -> Result<super::MarchOutput> {
+pub fn march_frame(renderer: &mut Renderer, method: Method, options: MarchOptions, rays: &[crate::layout::GpuRay]) -> Result<super::MarchOutput> {
     let dielectric = renderer.scene().transparency.and_then(|t| {
-        t.ior.map(|ior| super::optics::Dielectric {
-            ior,
-            absorption: t.absorption,
-            max_depth: t.max_depth,
-            reflectivity: t.reflectivity,
-        })
+        t.ior.map(|ior| super::optics::Dielectric { ior, absorption: t.absorption, max_depth: t.max_depth, reflectivity: t.reflectivity })
     });
     let Some(material) = dielectric else {
         return renderer.march(method, options, rays, |_| {});

@@ -41,10 +41,7 @@ impl Ray {
 /// `tmax < tmin`).
 pub fn clipped_ray(o: DVec3, d: DVec3, bounds: &Aabb) -> GpuRay {
     let (t0, t1) = bounds.clip_ray(o, d).unwrap_or((1.0, 0.0));
-    GpuRay {
-        o: [o.x as f32, o.y as f32, o.z as f32, t0 as f32],
-        d: [d.x as f32, d.y as f32, d.z as f32, t1 as f32],
-    }
+    GpuRay { o: [o.x as f32, o.y as f32, o.z as f32, t0 as f32], d: [d.x as f32, d.y as f32, d.z as f32, t1 as f32] }
 }
 
 /// Camera rays for a `width` x `height` image in tile order, and for each

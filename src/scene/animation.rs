@@ -90,9 +90,7 @@ fn interpolate(keys: &[(f64, DVec3)], t: f64) -> DVec3 {
 impl Motion {
     pub fn offset(&self, t: f64) -> DVec3 {
         match self {
-            Motion::Sine { axis, amplitude, period, phase } => {
-                *axis * (*amplitude * (std::f64::consts::TAU * t / period + phase).sin())
-            }
+            Motion::Sine { axis, amplitude, period, phase } => *axis * (*amplitude * (std::f64::consts::TAU * t / period + phase).sin()),
             Motion::Keyframes(keys) => interpolate(keys, t),
         }
     }

@@ -18,11 +18,7 @@ pub fn ron_options() -> ron::Options {
 pub fn parse(text: &str, name: &str) -> Result<SceneFile, SceneError> {
     let error = |e: ron::error::SpannedError, path: &str| {
         let at = format!("line {}, column {}", e.span.start.line, e.span.start.col);
-        SceneError {
-            file: name.to_string(),
-            field: if path.is_empty() { at } else { format!("{at}: {path}") },
-            message: e.code.to_string(),
-        }
+        SceneError { file: name.to_string(), field: if path.is_empty() { at } else { format!("{at}: {path}") }, message: e.code.to_string() }
     };
     let options = ron_options();
     let mut de = ron::Deserializer::from_str_with_options(text, &options).map_err(|e| error(e, ""))?;
@@ -186,7 +182,15 @@ pub struct MarchingFile {
 
 impl Default for MarchingFile {
     fn default() -> Self {
-        MarchingFile { method: default_method(), min_step: default_min_step(), max_steps: default_max_steps(), growth: None, extension: default_extension(), validity: default_validity(), refine: None }
+        MarchingFile {
+            method: default_method(),
+            min_step: default_min_step(),
+            max_steps: default_max_steps(),
+            growth: None,
+            extension: default_extension(),
+            validity: default_validity(),
+            refine: None,
+        }
     }
 }
 

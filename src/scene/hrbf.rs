@@ -121,13 +121,7 @@ pub enum FitError {
          an HRBF cannot take two values or gradients at one place; merge or move them",
         fmt_point(*.at)
     )]
-    CoincidentPoints {
-        first: usize,
-        second: usize,
-        at: DVec3,
-        distance: f64,
-        threshold: f64,
-    },
+    CoincidentPoints { first: usize, second: usize, at: DVec3, distance: f64, threshold: f64 },
     #[error(
         "a single control point has no HRBF without the polynomial term \
          (every kernel term vanishes at its own point, so the system is zero): turn the polynomial on"
@@ -148,19 +142,9 @@ pub enum FitError {
     #[error("the solve gave a non-finite weight for control point {index}")]
     NonFiniteWeights { index: usize },
     #[error("the fit does not interpolate: |f(p_{index})| = {residual:.3e} > tolerance {tolerance:.3e}")]
-    ValueNotInterpolated {
-        index: usize,
-        residual: f64,
-        tolerance: f64,
-    },
-    #[error(
-        "the fit does not interpolate the normal: |∇f(p_{index}) + n_{index}| = {residual:.3e} > tolerance {tolerance:.3e}"
-    )]
-    GradientNotInterpolated {
-        index: usize,
-        residual: f64,
-        tolerance: f64,
-    },
+    ValueNotInterpolated { index: usize, residual: f64, tolerance: f64 },
+    #[error("the fit does not interpolate the normal: |∇f(p_{index}) + n_{index}| = {residual:.3e} > tolerance {tolerance:.3e}")]
+    GradientNotInterpolated { index: usize, residual: f64, tolerance: f64 },
 }
 
 fn fmt_point(p: DVec3) -> String {
@@ -194,16 +178,10 @@ pub fn fit(points: &[DVec3], normals: &[DVec3], polynomial: bool) -> Result<Hrbf
         return Err(FitError::NoPoints);
     }
     if points.len() != normals.len() {
-        return Err(FitError::LengthMismatch {
-            points: points.len(),
-            normals: normals.len(),
-        });
+        return Err(FitError::LengthMismatch { points: points.len(), normals: normals.len() });
     }
     if let Some(index) = points.iter().position(|p| !p.is_finite()) {
-        return Err(FitError::NonFinitePoint {
-            index,
-            point: points[index],
-        });
+        return Err(FitError::NonFinitePoint { index, point: points[index] });
     }
     let mut units = Vec::with_capacity(normals.len());
     for (index, &normal) in normals.iter().enumerate() {
@@ -213,10 +191,7 @@ pub fn fit(points: &[DVec3], normals: &[DVec3], polynomial: bool) -> Result<Hrbf
         match normal.try_normalize() {
             Some(unit) => units.push(unit),
             None => {
-                return Err(FitError::ZeroNormal {
-                    index,
-                    length: normal.length(),
-                });
+                return Err(FitError::ZeroNormal { index, length: normal.length() });
             }
         }
     }
@@ -229,28 +204,15 @@ pub fn fit(points: &[DVec3], normals: &[DVec3], polynomial: bool) -> Result<Hrbf
     let diagonal = (hi - lo).length();
     if !diagonal.is_finite() {
         // Finite coordinates whose spread overflows: report the extreme point.
-        let index = points
-            .iter()
-            .enumerate()
-            .max_by(|a, b| a.1.abs().max_element().total_cmp(&b.1.abs().max_element()))
-            .map_or(0, |(i, _)| i);
-        return Err(FitError::NonFinitePoint {
-            index,
-            point: points[index],
-        });
+        let index = points.iter().enumerate().max_by(|a, b| a.1.abs().max_element().total_cmp(&b.1.abs().max_element())).map_or(0, |(i, _)| i);
+        return Err(FitError::NonFinitePoint { index, point: points[index] });
     }
     let threshold = COINCIDENCE_TOLERANCE * diagonal;
     for i in 0..points.len() {
         for j in i + 1..points.len() {
             let distance = points[i].distance(points[j]);
             if distance == 0.0 || distance < threshold {
-                return Err(FitError::CoincidentPoints {
-                    first: i,
-                    second: j,
-                    at: points[i],
-                    distance,
-                    threshold,
-                });
+                return Err(FitError::CoincidentPoints { first: i, second: j, at: points[i], distance, threshold });
             }
         }
     }
@@ -263,12 +225,7 @@ pub fn fit(points: &[DVec3], normals: &[DVec3], polynomial: bool) -> Result<Hrbf
 
     let condition = condition_number(&matrix);
     if condition.is_nan() || condition > CONDITION_LIMIT {
-        return Err(FitError::IllConditioned {
-            condition,
-            limit: CONDITION_LIMIT,
-            closest: closest_pair(points),
-            polynomial,
-        });
+        return Err(FitError::IllConditioned { condition, limit: CONDITION_LIMIT, closest: closest_pair(points), polynomial });
     }
     let solution = solve_refined(matrix, &rhs).ok_or_else(|| FitError::IllConditioned {
         condition: f64::INFINITY,
@@ -281,9 +238,7 @@ pub fn fit(points: &[DVec3], normals: &[DVec3], polynomial: bool) -> Result<Hrbf
     let n = points.len();
     let mut result = HrbfFit {
         alpha: (0..n).map(|i| solution[4 * i] / (scale * scale)).collect(),
-        beta: (0..n)
-            .map(|i| DVec3::new(solution[4 * i + 1], solution[4 * i + 2], solution[4 * i + 3]) / scale)
-            .collect(),
+        beta: (0..n).map(|i| DVec3::new(solution[4 * i + 1], solution[4 * i + 2], solution[4 * i + 3]) / scale).collect(),
         gradient: DVec3::ZERO,
         offset: 0.0,
     };
@@ -305,19 +260,11 @@ pub fn fit(points: &[DVec3], normals: &[DVec3], polynomial: bool) -> Result<Hrbf
     for (index, (&p, &unit)) in points.iter().zip(&units).enumerate() {
         let residual = result.value(points, p).abs();
         if residual.is_nan() || residual > value_tolerance {
-            return Err(FitError::ValueNotInterpolated {
-                index,
-                residual,
-                tolerance: value_tolerance,
-            });
+            return Err(FitError::ValueNotInterpolated { index, residual, tolerance: value_tolerance });
         }
         let residual = (result.gradient_at(points, p) + unit).length();
         if residual.is_nan() || residual > INTERPOLATION_TOLERANCE {
-            return Err(FitError::GradientNotInterpolated {
-                index,
-                residual,
-                tolerance: INTERPOLATION_TOLERANCE,
-            });
+            return Err(FitError::GradientNotInterpolated { index, residual, tolerance: INTERPOLATION_TOLERANCE });
         }
     }
     Ok(result)
@@ -353,21 +300,12 @@ impl HrbfFit {
     }
 
     fn check_len(&self, points: &[DVec3]) {
-        assert_eq!(
-            points.len(),
-            self.alpha.len(),
-            "HrbfFit evaluated with {} control points but fitted to {}",
-            points.len(),
-            self.alpha.len()
-        );
+        assert_eq!(points.len(), self.alpha.len(), "HrbfFit evaluated with {} control points but fitted to {}", points.len(), self.alpha.len());
     }
 }
 
 fn bounding_box(points: &[DVec3]) -> (DVec3, DVec3) {
-    points.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), &p| (lo.min(p), hi.max(p)),
-    )
+    points.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &p| (lo.min(p), hi.max(p)))
 }
 
 fn closest_pair(points: &[DVec3]) -> Option<(usize, usize, f64)> {
@@ -447,11 +385,7 @@ fn condition_number(matrix: &DMatrix<f64>) -> f64 {
     let sigma = svd.singular_values;
     let max = sigma.iter().copied().fold(0.0, f64::max);
     let min = sigma.iter().copied().fold(f64::INFINITY, f64::min);
-    if sigma.iter().any(|s| !s.is_finite()) || min <= 0.0 {
-        f64::INFINITY
-    } else {
-        max / min
-    }
+    if sigma.iter().any(|s| !s.is_finite()) || min <= 0.0 { f64::INFINITY } else { max / min }
 }
 
 /// LU solve with one step of iterative refinement; `None` if singular or non-finite.
@@ -475,11 +409,7 @@ mod tests {
 
     fn random_unit(rng: &mut Pcg64Mcg) -> DVec3 {
         loop {
-            let v = DVec3::new(
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-            );
+            let v = DVec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
             let l = v.length();
             if l > 0.1 && l <= 1.0 {
                 return v / l;
@@ -525,19 +455,11 @@ mod tests {
 
     fn random_problem(rng: &mut Pcg64Mcg) -> (Vec<DVec3>, Vec<DVec3>) {
         let n = rng.random_range(4..=40);
-        let centre = DVec3::new(
-            rng.random_range(-5.0..5.0),
-            rng.random_range(-5.0..5.0),
-            rng.random_range(-5.0..5.0),
-        );
+        let centre = DVec3::new(rng.random_range(-5.0..5.0), rng.random_range(-5.0..5.0), rng.random_range(-5.0..5.0));
         let axes = if rng.random_bool(0.3) {
             DVec3::splat(rng.random_range(0.2..4.0))
         } else {
-            DVec3::new(
-                rng.random_range(0.2..4.0),
-                rng.random_range(0.2..4.0),
-                rng.random_range(0.2..4.0),
-            )
+            DVec3::new(rng.random_range(0.2..4.0), rng.random_range(0.2..4.0), rng.random_range(0.2..4.0))
         };
         ellipsoid(rng, n, centre, axes)
     }
@@ -549,8 +471,7 @@ mod tests {
         for trial in 0..60 {
             let (points, normals) = random_problem(&mut rng);
             for polynomial in [true, false] {
-                let h = fit(&points, &normals, polynomial)
-                    .unwrap_or_else(|e| panic!("trial {trial}, polynomial {polynomial}: {e}"));
+                let h = fit(&points, &normals, polynomial).unwrap_or_else(|e| panic!("trial {trial}, polynomial {polynomial}: {e}"));
                 assert_interpolates(&h, &points, &normals);
                 let (v, g) = residuals(&h, &points, &normals);
                 worst = (worst.0.max(v / diagonal(&points)), worst.1.max(g));
@@ -566,10 +487,7 @@ mod tests {
                 }
             }
         }
-        eprintln!(
-            "worst relative value residual {:e}, gradient residual {:e}",
-            worst.0, worst.1
-        );
+        eprintln!("worst relative value residual {:e}, gradient residual {:e}", worst.0, worst.1);
     }
 
     #[test]
@@ -594,15 +512,11 @@ mod tests {
                     h.value(&points, x + DVec3::Z * step) - h.value(&points, x - DVec3::Z * step),
                 ) / (2.0 * step);
                 let err = (analytic - numeric).length();
-                assert!(
-                    err <= 1e-5 * (1.0 + analytic.length()),
-                    "at {x}: {analytic} vs {numeric}"
-                );
+                assert!(err <= 1e-5 * (1.0 + analytic.length()), "at {x}: {analytic} vs {numeric}");
             }
             // At a control point the gradient is the target, from either side.
             let p = points[0];
-            let numeric =
-                (h.value(&points, p + DVec3::X * step) - h.value(&points, p - DVec3::X * step)) / (2.0 * step);
+            let numeric = (h.value(&points, p + DVec3::X * step) - h.value(&points, p - DVec3::X * step)) / (2.0 * step);
             assert!((numeric + normals[0].normalize().x).abs() < 1e-4);
         }
     }
@@ -635,11 +549,7 @@ mod tests {
                 let (mut a, mut b) = (0.0, 2.5);
                 for _ in 0..60 {
                     let m = 0.5 * (a + b);
-                    if h.value(&points, centre + m * dir) > 0.0 {
-                        a = m
-                    } else {
-                        b = m
-                    }
+                    if h.value(&points, centre + m * dir) > 0.0 { a = m } else { b = m }
                 }
                 assert!((a - 1.5f64).abs() <= 0.05 * 1.5, "radius {a} along {dir}");
             }
@@ -674,11 +584,7 @@ mod tests {
             let moved: Vec<DVec3> = points.iter().map(|&p| s * p + shift).collect();
             let hm = fit(&moved, &normals, polynomial).unwrap();
             for _ in 0..20 {
-                let x = DVec3::new(
-                    rng.random_range(-2.0..2.0),
-                    rng.random_range(-2.0..2.0),
-                    rng.random_range(-2.0..2.0),
-                );
+                let x = DVec3::new(rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0));
                 let (f, fm) = (h.value(&points, x), hm.value(&moved, s * x + shift));
                 assert!((fm - s * f).abs() <= 1e-8 * s * (1.0 + f.abs()), "{fm} vs {}", s * f);
                 let (g, gm) = (h.gradient_at(&points, x), hm.gradient_at(&moved, s * x + shift));
@@ -692,37 +598,22 @@ mod tests {
         let p = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
         let n = [-DVec3::ONE, DVec3::X, DVec3::Y, DVec3::Z];
         assert_eq!(fit(&[], &[], true), Err(FitError::NoPoints));
-        assert_eq!(
-            fit(&p, &n[..3], true),
-            Err(FitError::LengthMismatch { points: 4, normals: 3 })
-        );
+        assert_eq!(fit(&p, &n[..3], true), Err(FitError::LengthMismatch { points: 4, normals: 3 }));
         let mut bad = p;
         bad[2].y = f64::NAN;
-        assert!(matches!(
-            fit(&bad, &n, true),
-            Err(FitError::NonFinitePoint { index: 2, .. })
-        ));
+        assert!(matches!(fit(&bad, &n, true), Err(FitError::NonFinitePoint { index: 2, .. })));
         bad[2].y = f64::INFINITY;
-        assert!(matches!(
-            fit(&bad, &n, true),
-            Err(FitError::NonFinitePoint { index: 2, .. })
-        ));
+        assert!(matches!(fit(&bad, &n, true), Err(FitError::NonFinitePoint { index: 2, .. })));
         let mut bad = n;
         bad[1].z = f64::NAN;
-        assert!(matches!(
-            fit(&p, &bad, false),
-            Err(FitError::NonFiniteNormal { index: 1, .. })
-        ));
+        assert!(matches!(fit(&p, &bad, false), Err(FitError::NonFiniteNormal { index: 1, .. })));
         bad[1] = DVec3::ZERO;
         let e = fit(&p, &bad, true).unwrap_err();
         assert!(matches!(e, FitError::ZeroNormal { index: 1, .. }));
         assert!(e.to_string().contains("control point 1 has a zero normal"), "{e}");
         // Overflowing spread.
         let far = [DVec3::splat(-1e308), DVec3::splat(1e308)];
-        assert!(matches!(
-            fit(&far, &[DVec3::X, DVec3::X], true),
-            Err(FitError::NonFinitePoint { .. })
-        ));
+        assert!(matches!(fit(&far, &[DVec3::X, DVec3::X], true), Err(FitError::NonFinitePoint { .. })));
     }
 
     #[test]
@@ -732,45 +623,17 @@ mod tests {
         p.push(p[4]);
         n.push(-DVec3::Z); // same place, opposite normal
         let e = fit(&p, &n, true).unwrap_err();
-        assert!(
-            matches!(
-                e,
-                FitError::CoincidentPoints {
-                    first: 4,
-                    second: 5,
-                    ..
-                }
-            ),
-            "{e:?}"
-        );
-        assert!(
-            e.to_string()
-                .starts_with("control points 4 and 5 coincide (at (0.1, 0.2, 0.3)"),
-            "{e}"
-        );
+        assert!(matches!(e, FitError::CoincidentPoints { first: 4, second: 5, .. }), "{e:?}");
+        assert!(e.to_string().starts_with("control points 4 and 5 coincide (at (0.1, 0.2, 0.3)"), "{e}");
         // Same normal: still rejected (the system would be singular).
         n[5] = DVec3::Z;
         assert!(matches!(fit(&p, &n, false), Err(FitError::CoincidentPoints { .. })));
         // Below the relative threshold.
         p[5] = p[4] + DVec3::new(0.0, 0.0, 1e-10);
-        assert!(matches!(
-            fit(&p, &n, true),
-            Err(FitError::CoincidentPoints {
-                first: 4,
-                second: 5,
-                ..
-            })
-        ));
+        assert!(matches!(fit(&p, &n, true), Err(FitError::CoincidentPoints { first: 4, second: 5, .. })));
         // All points the same (zero diagonal).
         let e = fit(&[DVec3::ONE, DVec3::ONE], &[DVec3::X, DVec3::Y], true).unwrap_err();
-        assert!(matches!(
-            e,
-            FitError::CoincidentPoints {
-                first: 0,
-                second: 1,
-                ..
-            }
-        ));
+        assert!(matches!(e, FitError::CoincidentPoints { first: 0, second: 1, .. }));
     }
 
     /// Points just above the coincidence threshold with opposite normals: the
@@ -783,20 +646,13 @@ mod tests {
         for polynomial in [true, false] {
             let e = fit(&points, &normals, polynomial).unwrap_err();
             match &e {
-                FitError::IllConditioned {
-                    condition,
-                    closest: Some((3, 10, _)),
-                    ..
-                } => {
+                FitError::IllConditioned { condition, closest: Some((3, 10, _)), .. } => {
                     assert!(*condition > CONDITION_LIMIT)
                 }
                 other => panic!("{other:?}"),
             }
             let text = e.to_string();
-            assert!(
-                text.contains("ill-conditioned") && text.contains("control points are 3 and 10"),
-                "{text}"
-            );
+            assert!(text.contains("ill-conditioned") && text.contains("control points are 3 and 10"), "{text}");
         }
         // Far enough apart with the same normal: a valid fit.
         normals[10] = normals[3];
@@ -841,9 +697,7 @@ mod tests {
     }
 
     fn grid_on_plane() -> Vec<DVec3> {
-        (0..16)
-            .map(|k| DVec3::new((k % 4) as f64 * 0.5, (k / 4) as f64 * 0.5 + 0.1 * (k % 4) as f64, 0.0))
-            .collect()
+        (0..16).map(|k| DVec3::new((k % 4) as f64 * 0.5, (k / 4) as f64 * 0.5 + 0.1 * (k % 4) as f64, 0.0)).collect()
     }
 
     /// Points on z = 0 with normals alternating +z and −z: contradictory for a
@@ -852,9 +706,7 @@ mod tests {
     #[test]
     fn coplanar_alternating_normals() {
         let points = grid_on_plane();
-        let normals: Vec<DVec3> = (0..points.len())
-            .map(|k| if k % 2 == 0 { DVec3::Z } else { -DVec3::Z })
-            .collect();
+        let normals: Vec<DVec3> = (0..points.len()).map(|k| if k % 2 == 0 { DVec3::Z } else { -DVec3::Z }).collect();
         for polynomial in [true, false] {
             let h = fit(&points, &normals, polynomial).unwrap();
             assert_interpolates(&h, &points, &normals);
@@ -886,9 +738,7 @@ mod tests {
         }
         // Random in-plane normals on the grid, too.
         let points = grid_on_plane();
-        let normals: Vec<DVec3> = (0..points.len())
-            .map(|k| DVec3::new((k as f64).cos(), (k as f64).sin(), 0.0))
-            .collect();
+        let normals: Vec<DVec3> = (0..points.len()).map(|k| DVec3::new((k as f64).cos(), (k as f64).sin(), 0.0)).collect();
         for polynomial in [true, false] {
             assert_interpolates(&fit(&points, &normals, polynomial).unwrap(), &points, &normals);
         }
@@ -905,8 +755,8 @@ mod tests {
             let kind = trial % 4;
             let points: Vec<DVec3> = (0..n)
                 .map(|k| match kind {
-                    0 => DVec3::X * k as f64,                   // collinear, evenly spaced
-                    1 => DVec3::new(k as f64, 0.0, 0.0) * 1e-6, // tiny
+                    0 => DVec3::X * k as f64,                                                         // collinear, evenly spaced
+                    1 => DVec3::new(k as f64, 0.0, 0.0) * 1e-6,                                       // tiny
                     2 => DVec3::new(1e5, 0.0, 0.0) + random_unit(&mut rng) * (k as f64 + 1.0) * 1e-3, // far away
                     _ => random_unit(&mut rng) * rng.random_range(0.9..1.1),
                 })
@@ -935,46 +785,16 @@ mod tests {
         let errors = [
             FitError::NoPoints,
             FitError::LengthMismatch { points: 3, normals: 2 },
-            FitError::NonFinitePoint {
-                index: 2,
-                point: DVec3::new(0.0, f64::NAN, 1.0),
-            },
-            FitError::NonFiniteNormal {
-                index: 2,
-                normal: DVec3::new(0.0, f64::INFINITY, 1.0),
-            },
+            FitError::NonFinitePoint { index: 2, point: DVec3::new(0.0, f64::NAN, 1.0) },
+            FitError::NonFiniteNormal { index: 2, normal: DVec3::new(0.0, f64::INFINITY, 1.0) },
             FitError::ZeroNormal { index: 4, length: 0.0 },
-            FitError::CoincidentPoints {
-                first: 3,
-                second: 7,
-                at: DVec3::new(0.1, 0.2, 0.3),
-                distance: 0.0,
-                threshold: 1e-9,
-            },
-            FitError::IllConditioned {
-                condition: 3.2e15,
-                limit: 1e12,
-                closest: Some((1, 2, 1e-7)),
-                polynomial: true,
-            },
+            FitError::CoincidentPoints { first: 3, second: 7, at: DVec3::new(0.1, 0.2, 0.3), distance: 0.0, threshold: 1e-9 },
+            FitError::IllConditioned { condition: 3.2e15, limit: 1e12, closest: Some((1, 2, 1e-7)), polynomial: true },
             FitError::SinglePointWithoutPolynomial,
-            FitError::IllConditioned {
-                condition: f64::INFINITY,
-                limit: 1e12,
-                closest: None,
-                polynomial: false,
-            },
+            FitError::IllConditioned { condition: f64::INFINITY, limit: 1e12, closest: None, polynomial: false },
             FitError::NonFiniteWeights { index: 1 },
-            FitError::ValueNotInterpolated {
-                index: 5,
-                residual: 1e-3,
-                tolerance: 1e-6,
-            },
-            FitError::GradientNotInterpolated {
-                index: 5,
-                residual: 1e-3,
-                tolerance: 1e-6,
-            },
+            FitError::ValueNotInterpolated { index: 5, residual: 1e-3, tolerance: 1e-6 },
+            FitError::GradientNotInterpolated { index: 5, residual: 1e-3, tolerance: 1e-6 },
         ];
         for e in errors {
             let s = e.to_string();

@@ -14,8 +14,8 @@ pub mod animation;
 
 pub use animation::{Animation, CameraPath, Motion, Scale};
 
-use crate::settings::{QuadSettings, Refinement, ValidityScope};
 use crate::method::Method;
+use crate::settings::{QuadSettings, Refinement, ValidityScope};
 
 /// Largest kernel weight or slope the GPU's f32 arithmetic takes with room
 /// to spare (f32 ends at 3.4e38).
@@ -88,17 +88,33 @@ pub enum Kernel {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Primitive {
-    Point { center: DVec3, kernel: Kernel },
+    Point {
+        center: DVec3,
+        kernel: Kernel,
+    },
     /// Compact kernel of the distance to the plane `normal · p = offset`.
-    Plane { normal: DVec3, offset: f64, radius: f64, weight: f64 },
+    Plane {
+        normal: DVec3,
+        offset: f64,
+        radius: f64,
+        weight: f64,
+    },
     /// One term of a Hermite RBF (Eq. 9, φ(r) = r³):
     /// `alpha |p - center|³ + 3 |p - center| beta · (p - center)`.
     /// `domain`: its HRBF's box (the control points' box with the margin),
     /// where rays are marched.
-    Hrbf { center: DVec3, alpha: f64, beta: DVec3, domain: Aabb },
+    Hrbf {
+        center: DVec3,
+        alpha: f64,
+        beta: DVec3,
+        domain: Aabb,
+    },
     /// The affine function `gradient · p + offset`: an HRBF's polynomial
     /// term, with the iso value added so that its surface is the HRBF's.
-    Affine { gradient: DVec3, offset: f64 },
+    Affine {
+        gradient: DVec3,
+        offset: f64,
+    },
 }
 
 /// Axis-aligned box.
@@ -250,11 +266,7 @@ impl Checker<'_> {
         if v.is_finite() { Ok(v) } else { Err(self.err(field, format!("must be a finite number, got {v}"))) }
     }
     fn positive(&self, field: &str, v: f64) -> Result<f64, SceneError> {
-        if v.is_finite() && v > 0.0 {
-            Ok(v)
-        } else {
-            Err(self.err(field, format!("must be positive and finite, got {v}")))
-        }
+        if v.is_finite() && v > 0.0 { Ok(v) } else { Err(self.err(field, format!("must be positive and finite, got {v}"))) }
     }
     fn vec3(&self, field: &str, v: [f64; 3]) -> Result<DVec3, SceneError> {
         for (i, c) in v.iter().enumerate() {
@@ -395,11 +407,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         return Err(c.err("camera.resolution", format!("must be 1..=16384 pixels each way, got ({w}, {h})")));
     }
     let iso = c.positive("iso", f.iso)?;
-    let method: Method = f
-        .marching
-        .method
-        .parse()
-        .map_err(|e: String| c.err("marching.method", e))?;
+    let method: Method = f.marching.method.parse().map_err(|e: String| c.err("marching.method", e))?;
     let min_step = c.positive("marching.min_step", f.marching.min_step)?;
     if f.marching.max_steps == 0 {
         return Err(c.err("marching.max_steps", "must be at least 1"));
@@ -412,8 +420,9 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
     };
     let refine = match f.marching.refine.as_deref() {
         None => Refinement::default(),
-        Some(name) => Refinement::from_name(name)
-            .ok_or_else(|| c.err("marching.refine", format!("expected \"secant\" or \"bisection\", got {name:?}")))?,
+        Some(name) => {
+            Refinement::from_name(name).ok_or_else(|| c.err("marching.refine", format!("expected \"secant\" or \"bisection\", got {name:?}")))?
+        }
     };
     let validity = match f.marching.validity.as_str() {
         "significant" => ValidityScope::Significant,
