@@ -88,7 +88,9 @@ fn exr_aovs_hold_the_frames_results_and_the_spheres_closed_form() {
                 assert!((f64::from(z[i]) - t).abs() < 2e-4 * 2.0 + 1e-5, "pixel ({x}, {y}): Z {} against the sphere's {t}", z[i]);
                 let n = DVec3::new(normal[0][i].into(), normal[1][i].into(), normal[2][i].into());
                 let expected = (eye + t * d - centre) / rho;
-                assert!(n.dot(expected) > 0.999, "pixel ({x}, {y}): normal {n} against {expected}");
+                assert!((n.length() - 1.0).abs() < 1e-5, "pixel ({x}, {y}): normal {n} of length {}", n.length());
+                let angle = n.normalize().dot(expected).clamp(-1.0, 1.0).acos().to_degrees();
+                assert!(angle < 0.5, "pixel ({x}, {y}): normal {n} {angle}° from the sphere's {expected}");
                 assert!(steps[i] >= 1.0, "pixel ({x}, {y}): a hit in {} steps", steps[i]);
                 hits += 1;
             } else {

@@ -12,6 +12,18 @@ use isomarch::output::heatmap_image;
 use isomarch::render::offscreen::{RenderJob, render_frame};
 use isomarch::scene::Scene;
 
+thread_local! {
+    /// This test rewrote goldens (UPDATE_GOLDENS=1): it fails at its end,
+    /// so that a run that rewrites records never passes for one that
+    /// checked them.
+    static REWROTE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// The end of a test that compared goldens: fails if it rewrote them.
+fn goldens_done() {
+    assert!(!REWROTE.with(|r| r.get()), "goldens rewritten (UPDATE_GOLDENS=1): look at them, then run again without it to check");
+}
+
 fn golden_dir() -> PathBuf {
     repo_root().join("tests").join("goldens")
 }
@@ -23,6 +35,7 @@ fn check_golden(name: &str, actual: &RgbImage) {
     let path = golden_dir().join(format!("{name}.png"));
     if std::env::var("UPDATE_GOLDENS").is_ok_and(|v| v == "1") {
         actual.save(&path).unwrap();
+        REWROTE.with(|r| r.set(true));
         return;
     }
     let golden = image::open(&path).unwrap_or_else(|e| panic!("{}: {e} (create it with UPDATE_GOLDENS=1)", path.display())).to_rgb8();
@@ -64,6 +77,7 @@ fn default_scene_matches_its_golden() {
     let distinct: std::collections::HashSet<_> = shaded.pixels().map(|p| p.0).collect();
     assert!(distinct.len() > 100, "only {} distinct colours", distinct.len());
     check_golden("default-segment-96", &shaded);
+    goldens_done();
 }
 
 #[test]
@@ -73,6 +87,7 @@ fn fig10_every_method_matches_its_goldens() {
         check_golden(&format!("fig10-{method}-96"), &shaded);
         check_golden(&format!("fig10-{method}-96-steps"), &heat);
     }
+    goldens_done();
 }
 
 /// Transparent rendering: every crossing composited front to back.
@@ -85,6 +100,7 @@ fn transparent_scenes_match_their_goldens() {
             check_golden(&format!("{scene}-{method}-96-steps"), &heat);
         }
     }
+    goldens_done();
 }
 
 /// Reflection and refraction: fig16's dielectric blobs and ground at t = 0.
@@ -93,6 +109,7 @@ fn refractive_fig16_matches_its_golden() {
     let (shaded, heat) = render("fig16.ron", Method::QuadraticTaylor, 96);
     check_golden("fig16-quadratic-taylor-96", &shaded);
     check_golden("fig16-quadratic-taylor-96-steps", &heat);
+    goldens_done();
 }
 
 /// Where the expected mean steps per ray are kept, with how they were made.
@@ -151,7 +168,7 @@ fn mean_steps_per_ray_of_every_method_on_every_shipped_scene_match_the_record() 
             text.push_str(&format!("{scene},{method},{steps:.4}\n"));
         }
         std::fs::write(&path, text).unwrap();
-        return;
+        panic!("{} rewritten (UPDATE_STEP_COUNTS=1): look at the diff, then run again without it to check", path.display());
     }
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e} (create it with UPDATE_STEP_COUNTS=1)", path.display()));
     let mut expected = std::collections::HashMap::new();

@@ -425,7 +425,7 @@ fn bound_widths_stay_at_their_recorded_tightness() {
             text.push_str(&format!("{scene},{method},{width:.6e},{kept:.6}\n"));
         }
         std::fs::write(&path, text).unwrap();
-        return;
+        panic!("{} rewritten (UPDATE_BOUND_WIDTHS=1): look at the diff, then run again without it to check", path.display());
     }
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e} (create it with UPDATE_BOUND_WIDTHS=1)", path.display()));
     let mut expected = std::collections::HashMap::new();

@@ -222,7 +222,7 @@ fn batch_frames_turn_the_camera_around_the_molecule() {
         "--turntable",
         "4",
         "--frames",
-        "0..2",
+        "0..5",
         "--fps",
         "1",
         "--size",
@@ -231,9 +231,15 @@ fn batch_frames_turn_the_camera_around_the_molecule() {
         pattern.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let a = image::open(dir.join("f_0.png")).unwrap().to_rgb8();
-    let b = image::open(dir.join("f_1.png")).unwrap().to_rgb8();
-    assert_ne!(a, b, "a quarter turn later the frame is the same");
+    let frame = |i: u32| image::open(dir.join(format!("f_{i}.png"))).unwrap().to_rgb8();
+    // Pixels that differ by more than 8/255 in a channel.
+    let differing =
+        |a: &image::RgbImage, b: &image::RgbImage| a.pixels().zip(b.pixels()).filter(|(p, q)| (0..3).any(|c| p[c].abs_diff(q[c]) > 8)).count();
+    let (f0, f1, f4) = (frame(0), frame(1), frame(4));
+    assert!(differing(&f0, &f1) > 40, "a quarter turn later the frame is nearly the same");
+    // A period of 4 s at 1 fps: frame 4 is frame 0 again (the angle is 2π,
+    // whose cosine and sine round to within an ulp of 1 and 0).
+    assert!(differing(&f0, &f4) <= 8, "one full turn later the frame differs in {} pixels", differing(&f0, &f4));
 }
 
 /// On a sample of a molecule's camera rays (`bench --camera`), every

@@ -118,6 +118,35 @@ fn the_binary_fails_cleanly_and_writes_nothing() {
     assert!(leftovers.is_empty(), "left files behind: {leftovers:?}");
 }
 
+/// The command line's own error paths: a window without a display is one
+/// line that says how to get one; a size of zero is refused before any
+/// work; an output directory that does not exist yet is made.
+#[test]
+fn the_command_line_refuses_what_it_cannot_do_and_makes_what_it_can() {
+    let dir = scratch("cli-paths");
+    let scene = repo_root().join("scenes/default.ron");
+    let view = Command::new(bin())
+        .arg("view")
+        .arg(&scene)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&view.stderr);
+    assert_eq!(view.status.code(), Some(1), "view without a display: {stderr}");
+    assert!(stderr.trim().lines().count() == 1 && stderr.contains("no display") && stderr.contains("Xvfb"), "view without a display: {stderr}");
+    let zero = Command::new(bin()).arg("render").arg(&scene).arg("-o").arg(dir.join("zero.png")).args(["--size", "0x0"]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&zero.stderr);
+    assert_eq!(zero.status.code(), Some(2), "--size 0x0: {stderr}");
+    assert!(stderr.contains("'0x0'") && stderr.contains("1..=16384"), "--size 0x0: {stderr}");
+    assert!(!dir.join("zero.png").exists());
+    let nested = dir.join("not").join("yet").join("made.png");
+    let made = Command::new(bin()).arg("render").arg(&scene).arg("-o").arg(&nested).args(["--size", "16x16"]).output().unwrap();
+    assert!(made.status.success(), "an output directory that does not exist: {}", String::from_utf8_lossy(&made.stderr));
+    assert_eq!(image::open(&nested).unwrap().to_rgb8().dimensions(), (16, 16));
+}
+
 #[test]
 fn bad_motion_and_transparency_are_rejected() {
     let moving = |motion: &str| GOOD.replace("kernel: Compact(radius: 2.0))", &format!("kernel: Compact(radius: 2.0), motion: Some({motion}))"));
