@@ -1,6 +1,6 @@
-//! Modules depend one way. Reads the `crate::` and `super::` paths of every
-//! source file under src/ (test modules excluded: a test may reach
-//! anywhere) and fails on a cycle, between the crate's top-level modules and
+//! Modules depend one way. Parses every source file under src/ (syn) for
+//! the `crate::` and `super::` paths it names (test items excluded: a test
+//! may reach anywhere) and fails on a cycle, between the crate's top-level modules and
 //! between the submodules of one module. The layers, leaf first:
 //! layout <- settings, method <- scene <- field <- render <- the commands.
 
@@ -31,25 +31,126 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
 }
 
 /// The module paths a file's non-test code names, resolved to absolute
-/// paths (`crate::a::b` and `super::b` from within `a`).
+/// paths (`crate::a::b`, and `super::b` or `super::super::b` from within
+/// the module): every `use` tree, groups included (`use super::{a, b}`),
+/// and every path in code, types and macro arguments. Items under
+/// `#[cfg(test)]` are skipped wherever they stand in the file.
 fn references(source: &str, own: &[String]) -> Vec<Vec<String>> {
-    let code = source.split("#[cfg(test)]").next().unwrap();
-    let mut out = Vec::new();
-    for (prefix, base) in [("crate::", Vec::new()), ("super::", own[..own.len().saturating_sub(1)].to_vec())] {
-        for (i, _) in code.match_indices(prefix) {
-            if i > 0 && code[..i].ends_with(|c: char| c.is_alphanumeric() || c == '_' || c == ':') {
-                continue;
+    use syn::visit::Visit;
+
+    struct Paths<'a> {
+        own: &'a [String],
+        out: Vec<Vec<String>>,
+    }
+
+    impl Paths<'_> {
+        /// A path's leading segments: `crate` or `super`s, then the module.
+        fn add(&mut self, segments: &[String]) {
+            let mut base: Vec<String> = match segments.first().map(String::as_str) {
+                Some("crate") => Vec::new(),
+                Some("super") => self.own.to_vec(),
+                _ => return,
+            };
+            let mut rest = &segments[1..];
+            if segments[0] == "super" {
+                base.pop();
+                while rest.first().is_some_and(|s| s == "super") {
+                    base.pop();
+                    rest = &rest[1..];
+                }
             }
-            let rest = &code[i + prefix.len()..];
-            let name: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
-            if !name.is_empty() {
-                let mut path = base.clone();
-                path.push(name);
-                out.push(path);
+            if let Some(name) = rest.first().filter(|n| n.as_str() != "self" && n.as_str() != "*") {
+                base.push(name.clone());
+                self.out.push(base);
+            }
+        }
+
+        fn use_tree(&mut self, prefix: &mut Vec<String>, tree: &syn::UseTree) {
+            match tree {
+                syn::UseTree::Path(p) => {
+                    prefix.push(p.ident.to_string());
+                    self.use_tree(prefix, &p.tree);
+                    prefix.pop();
+                }
+                syn::UseTree::Name(n) => {
+                    prefix.push(n.ident.to_string());
+                    self.add(prefix);
+                    prefix.pop();
+                }
+                syn::UseTree::Rename(r) => {
+                    prefix.push(r.ident.to_string());
+                    self.add(prefix);
+                    prefix.pop();
+                }
+                syn::UseTree::Glob(_) => {
+                    prefix.push("*".into());
+                    self.add(prefix);
+                    prefix.pop();
+                }
+                syn::UseTree::Group(g) => {
+                    for t in &g.items {
+                        self.use_tree(prefix, t);
+                    }
+                }
             }
         }
     }
-    out
+
+    fn is_test(attrs: &[syn::Attribute]) -> bool {
+        attrs.iter().any(|a| a.path().is_ident("cfg") && a.meta.require_list().is_ok_and(|l| l.tokens.to_string() == "test"))
+    }
+
+    impl<'ast> Visit<'ast> for Paths<'_> {
+        fn visit_item(&mut self, item: &'ast syn::Item) {
+            let attrs: &[syn::Attribute] = match item {
+                syn::Item::Mod(m) => &m.attrs,
+                syn::Item::Fn(f) => &f.attrs,
+                syn::Item::Use(u) => &u.attrs,
+                syn::Item::Impl(i) => &i.attrs,
+                syn::Item::Struct(s) => &s.attrs,
+                syn::Item::Const(c) => &c.attrs,
+                _ => &[],
+            };
+            if !is_test(attrs) {
+                syn::visit::visit_item(self, item);
+            }
+        }
+
+        fn visit_item_use(&mut self, u: &'ast syn::ItemUse) {
+            self.use_tree(&mut Vec::new(), &u.tree);
+        }
+
+        fn visit_path(&mut self, path: &'ast syn::Path) {
+            let segments: Vec<String> = path.segments.iter().map(|s| s.ident.to_string()).collect();
+            self.add(&segments);
+            syn::visit::visit_path(self, path);
+        }
+
+        fn visit_macro(&mut self, mac: &'ast syn::Macro) {
+            // Macro arguments are tokens, not syntax: `crate :: a` in them.
+            let tokens: Vec<String> = mac.tokens.to_string().split_whitespace().map(String::from).collect();
+            for (i, t) in tokens.iter().enumerate() {
+                if (t == "crate" || t == "super") && tokens.get(i + 1).is_some_and(|c| c == "::") {
+                    let mut segments = vec![t.clone()];
+                    let mut j = i + 2;
+                    while let Some(name) = tokens.get(j) {
+                        segments.push(name.trim_matches(|c: char| !(c.is_alphanumeric() || c == '_')).to_string());
+                        if tokens.get(j + 1).is_none_or(|c| c != "::") {
+                            break;
+                        }
+                        j += 2;
+                    }
+                    self.add(&segments);
+                }
+            }
+            syn::visit::visit_macro(self, mac);
+        }
+    }
+
+    let file = syn::parse_file(source).unwrap_or_else(|e| panic!("{}: {e}", own.join("::")));
+    let mut paths = Paths { own, out: Vec::new() };
+    paths.visit_file(&file);
+    paths.out
 }
 
 /// A cycle in `graph`, if any, as the modules along it.
