@@ -518,8 +518,9 @@ struct BenchArgs {
     #[arg(long, default_value_t = bench::DEFAULT_SEED)]
     seed: u64,
     /// Instead of the protocol's rays, a seeded sample of `--rays` of the
-    /// scene camera's pixel rays at its resolution (or `--size` WxH given
-    /// here), without repeats: the rays a rendered frame marches.
+    /// scene camera's pixel rays, without repeats: the rays a rendered
+    /// frame marches. The frame is the scene's resolution, or WxH when
+    /// given (`--camera 750x750`).
     #[arg(long, value_parser = parse_size, value_name = "WxH", num_args = 0..=1, default_missing_value = "0x0")]
     camera: Option<(u32, u32)>,
     /// Run the whole list of methods this many times, interleaved, and
