@@ -7,6 +7,7 @@
 #define BOUNDS_PROBE 1
 #include "bindings.glsl"
 #include "traverse.glsl"
+#include "inversion.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -18,7 +19,7 @@ void main() {
     vec3 u = q.d.xyz;
     float t0 = q.o.w;
     float t1 = q.d.w;
-    if (SC_METHOD == METHOD_SPHERE || SC_METHOD == METHOD_FIELD_INVERSION || SC_METHOD == METHOD_FIELD_INVERSION_DYNAMOL) {
+    if (SC_METHOD == METHOD_SPHERE || INVERTS) {
         // No bound: f and its gradient at t0.
         vec3 grad;
         float f = field_eval(o + t0 * u, true, grad);

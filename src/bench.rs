@@ -453,17 +453,12 @@ fn validity_kept(scene: &Scene, method: Method, quad: QuadSettings, rays: &[GpuR
 fn camera_sample(scene: &Scene, width: u32, height: u32, count: usize, seed: u64) -> Result<Vec<GpuRay>> {
     use rand::SeedableRng;
     let (all, pixels) = camera_rays(&scene.camera, width, height, &scene.bounds);
-    let mut rays: Vec<(u32, GpuRay)> = all.into_iter().zip(pixels).filter_map(|(r, p)| p.map(|p| (p, r))).collect();
+    let rays: Vec<(u32, GpuRay)> = all.into_iter().zip(pixels).filter_map(|(r, p)| p.map(|p| (p, r))).collect();
     anyhow::ensure!(count <= rays.len(), "--camera: {count} rays asked of a {width}x{height} frame, which has {}", rays.len());
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
-    let mut keep = vec![false; rays.len()];
-    for i in rand::seq::index::sample(&mut rng, rays.len(), count) {
-        keep[i] = true;
-    }
-    let mut k = keep.into_iter();
-    rays.retain(|_| k.next().unwrap_or(false));
-    rays.sort_by_key(|&(p, _)| p);
-    Ok(rays.into_iter().map(|(_, r)| r).collect())
+    let mut picked: Vec<(u32, GpuRay)> = rand::seq::index::sample(&mut rng, rays.len(), count).into_iter().map(|i| rays[i]).collect();
+    picked.sort_by_key(|&(p, _)| p);
+    Ok(picked.into_iter().map(|(_, r)| r).collect())
 }
 
 /// The report as a markdown table.

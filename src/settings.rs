@@ -159,11 +159,8 @@ impl Bracket {
     /// The next point to evaluate, or `None` when the bracket is within
     /// `tolerance` (or no float lies strictly inside it).
     pub fn next(&self, mode: Refinement, tolerance: f64) -> Option<f64> {
+        let mid = self.open(tolerance)?;
         let w = self.b - self.a;
-        let mid = self.a + 0.5 * w;
-        if self.turns >= MAX_REFINE_TURNS || !(w > tolerance) || !(mid > self.a && mid < self.b) {
-            return None;
-        }
         let interpolate = mode != Refinement::Bisection && self.ga < 0.0 && (self.turns < SECANT_FREE_TURNS || self.turns.is_multiple_of(2));
         if !interpolate {
             return Some(mid);
@@ -183,12 +180,17 @@ impl Bracket {
     /// (over `[x, b]`), or `None` when the bracket is within `tolerance`.
     /// The GPU's `inclusion_next`.
     pub fn next_inclusion(&self, tolerance: f64) -> Option<f64> {
+        let mid = self.open(tolerance)?;
+        Some(if self.side == REFINE_SIDE_SPLIT { mid } else { self.a })
+    }
+
+    /// The bracket's middle while a turn may narrow it: within the turn
+    /// budget, wider than `tolerance`, with a float strictly inside. The
+    /// GPU's `bracket_open`.
+    fn open(&self, tolerance: f64) -> Option<f64> {
         let w = self.b - self.a;
         let mid = self.a + 0.5 * w;
-        if self.turns >= MAX_REFINE_TURNS || !(w > tolerance) || !(mid > self.a && mid < self.b) {
-            return None;
-        }
-        Some(if self.side == REFINE_SIDE_SPLIT { mid } else { self.a })
+        (self.turns < MAX_REFINE_TURNS && w > tolerance && mid > self.a && mid < self.b).then_some(mid)
     }
 
     /// Takes the fold from `x` (see [`Bracket::next_inclusion`]): `g` at

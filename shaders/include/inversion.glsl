@@ -8,6 +8,9 @@
 
 #include "traverse.glsl"
 
+// The field-inversion methods, either hit rule (Method::inverts).
+const bool INVERTS = SC_METHOD == METHOD_FIELD_INVERSION || SC_METHOD == METHOD_FIELD_INVERSION_DYNAMOL;
+
 // f at o + t u, and the step from there: ω |g|.
 float inversion_step(vec3 o, vec3 u, float t, out float f) {
     f = field(o + t * u);

@@ -115,8 +115,10 @@ struct StepEval {
 // bound too: where it reaches 0 inside its validity interval, f >= 0
 // there, so the first crossing is bracketed by the two bounds' roots
 // without a step to it (docs/refinement.md, "Inclusion refinement").
-const bool TWO_SIDED = SC_TRANSPARENT == 0u && SC_SECONDARY == 0u && SC_METHOD != METHOD_SPHERE && SC_METHOD != METHOD_SEGMENT
-                       && SC_METHOD != METHOD_FIELD_INVERSION && SC_METHOD != METHOD_FIELD_INVERSION_DYNAMOL && SC_METHOD != METHOD_RAA && SC_METHOD != METHOD_LINEAR_BISECTION;
+// The methods whose step folds an inclusion bound (Method::has_bound).
+const bool HAS_BOUND = SC_METHOD != METHOD_SPHERE && SC_METHOD != METHOD_SEGMENT && !INVERTS && SC_METHOD != METHOD_RAA
+                       && SC_METHOD != METHOD_LINEAR_BISECTION;
+const bool TWO_SIDED = SC_TRANSPARENT == 0u && SC_SECONDARY == 0u && HAS_BOUND;
 
 // The fold of one turn on [t0, t1]: f at t0 and, for a step, the step to
 // the first root of the relevant bound on [t0, t1] (at most t1 - t0).
@@ -125,7 +127,7 @@ StepEval step_eval(vec3 o, vec3 u, float t0, float t1) {
     if (SC_METHOD == METHOD_SPHERE) {
         float f = field(o + t0 * u);
         return StepEval(f, abs(f) / globals.march.w, INFINITY);            // Eq. 10
-    } else if (SC_METHOD == METHOD_FIELD_INVERSION || SC_METHOD == METHOD_FIELD_INVERSION_DYNAMOL) {
+    } else if (INVERTS) {
         float f;
         float step = inversion_step(o, u, t0, f);            // not conservative (inversion.glsl)
         return StepEval(f, step, INFINITY);
@@ -213,6 +215,14 @@ void step_apply(vec3 o, vec3 u, float tmax, StepEval e, inout March m) {
     m.window = window_cap(globals.tuning.x * step);
 }
 
+// The bracket's middle, and whether a turn may narrow it: within the turn
+// budget, wider than the tolerance, with a float strictly inside.
+bool bracket_open(March m, out float mid) {
+    float w = m.rb - m.ra;
+    mid = m.ra + 0.5 * w;
+    return m.refine_turns < MAX_REFINE_TURNS && w > globals.march.z && mid > m.ra && mid < m.rb;
+}
+
 // A refinement's next point inside its bracket (ra, rb), or false when the
 // bracket is within the tolerance. SC_REFINE picks the point: the
 // bracket's middle (bisection), or Illinois regula falsi placed a quarter
@@ -221,10 +231,9 @@ void step_apply(vec3 o, vec3 u, float tmax, StepEval e, inout March m) {
 // every other turn bisects. Mirrored in f64 by settings::Bracket
 // (docs/refinement.md).
 bool refine_next(March m, out float x) {
+    if (!bracket_open(m, x)) return false;
     float w = m.rb - m.ra;
     float tol = globals.march.z;
-    x = m.ra + 0.5 * w;
-    if (!(m.refine_turns < MAX_REFINE_TURNS && w > tol && x > m.ra && x < m.rb)) return false;
     if (SC_REFINE != REFINE_BISECTION && m.ga < 0.0 && (m.refine_turns < SECANT_FREE_TURNS || (m.refine_turns & 1u) == 0u)) {
         float margin = SECANT_STRADDLE * tol;
         float s = m.ra + w * (m.ga / (m.ga - m.gb));
@@ -263,10 +272,10 @@ const bool INCLUSION_REFINE = TWO_SIDED && SC_REFINE == REFINE_INCLUSION;
 // The point the next inclusion turn folds from, or false when the bracket
 // is within the tolerance (or no float lies strictly inside it).
 bool inclusion_next(March m, out float x) {
-    float w = m.rb - m.ra;
-    float mid = m.ra + 0.5 * w;
+    float mid;
+    bool open = bracket_open(m, mid);
     x = m.refine_side == REFINE_SIDE_SPLIT ? mid : m.ra;
-    return m.refine_turns < MAX_REFINE_TURNS && w > globals.march.z && mid > m.ra && mid < m.rb;
+    return open;
 }
 
 void inclusion_update(float x, StepEval e, inout March m) {
@@ -331,7 +340,7 @@ void algorithm1_turn(vec3 o, vec3 u, float tmax, inout March m) {
             refine_finish(o, u, m);
             return;
         }
-        t1 = SC_METHOD == METHOD_SEGMENT || SC_METHOD == METHOD_SPHERE || SC_METHOD == METHOD_FIELD_INVERSION || SC_METHOD == METHOD_FIELD_INVERSION_DYNAMOL ? t0 : t0 + globals.march.z;
+        t1 = HAS_BOUND ? t0 + globals.march.z : t0;
     } else if (m.steps >= (SC_METHOD == METHOD_FIELD_INVERSION_DYNAMOL ? min(globals.sizes.w, DYNAMOL_STEPS) : globals.sizes.w)) {
         m.flags |= FLAG_DONE | FLAG_OUT_OF_STEPS;
         // dynamol out of steps: the closest point seen is the hit.

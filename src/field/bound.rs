@@ -117,6 +117,14 @@ pub fn lower_root(b: &Bound) -> f64 {
     if b.v >= 0.0 { 0.0 } else { first_root(-b.v, b.a_lo, b.b_lo) }
 }
 
+/// For a bound from `t0`: the lower bound's first root where it lies in
+/// the validity interval (a crossing is proven by then), else infinite.
+/// The GPU's `StepEval::cross`.
+pub fn proven_crossing(b: &Bound, t0: f64) -> f64 {
+    let r = lower_root(b);
+    if r <= b.t_valid - t0 { r } else { f64::INFINITY }
+}
+
 /// Where a march from `t0` may step: the first root of the upper bound when
 /// outside (`v < 0`), of the lower bound when inside (Algorithm 1). A
 /// relaxed upper bound that starts at or above 0 allows no step.

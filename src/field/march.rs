@@ -5,7 +5,7 @@
 use glam::DVec3;
 
 use super::Field;
-use super::bound::{lower_root, next_root};
+use super::bound::{next_root, proven_crossing};
 use super::fold::{field_bound, field_linear, field_raa};
 use super::inversion::{Inversion, OVER_RELAXATION};
 use super::quad::QuadSettings;
@@ -107,8 +107,8 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
                 if len > 0.0 {
                     r.kept += (b.t_valid - t) / len;
                 }
-                if two_sided && lower_root(&b) <= b.t_valid - t {
-                    cross = lower_root(&b);
+                if two_sided {
+                    cross = proven_crossing(&b, t);
                 }
                 // Up to where the bound is valid (Section 4.2).
                 (b.v, next_root(&b).min(b.t_valid - t))
@@ -183,9 +183,7 @@ fn refine_inclusion(field: &Field, method: Method, o: DVec3, u: DVec3, a: f64, b
     let mut bracket = Bracket::new(a, 0.0, b, 0.0);
     while let Some(x) = bracket.next_inclusion(s.tolerance) {
         let bd = field_bound(field, method, s.quad, o, u, x, bracket.b).expect("an inclusion method");
-        let valid = bd.t_valid - x;
-        let cross = lower_root(&bd);
-        bracket.update_inclusion(x, bd.v, next_root(&bd).min(valid), if cross <= valid { cross } else { f64::INFINITY });
+        bracket.update_inclusion(x, bd.v, next_root(&bd).min(bd.t_valid - x), proven_crossing(&bd, x));
     }
     bracket.b
 }
