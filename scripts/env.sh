@@ -9,7 +9,8 @@ ISOMARCH_PACKAGES=(
     vulkan-validationlayers          # the tests run with validation on
     xvfb xdotool x11-apps            # window tests: a display, input sent to it, xwd to grab what it shows
     libx11-6 libx11-xcb1 libxcursor1 libxi6 libxrandr2 libxkbcommon-x11-0  # loaded by the window code
-    cmake python3 g++ git            # shaderc is built from source by cargo
+    libshaderc-dev glslang-dev       # shaderc and glslang as static archives, linked in seconds (isomarch_shaderc_archive)
+    cmake python3 g++ git            # the source build of shaderc, where those archives cannot be merged
     glslang-tools spirv-tools vulkan-tools  # inspection: glslangValidator, spirv-dis, vulkaninfo
     ca-certificates curl pkg-config
     fonts-dejavu-core                # the font of `isomarch tradeoff`'s plots
@@ -19,14 +20,16 @@ ISOMARCH_PACKAGES=(
 # script that sources this file: `slurm` is a one-node SLURM with its
 # authentication (scripts/slurm-local.sh; the test suite's SLURM test).
 # `lint` is rustfmt and clippy (rustup components; the test suite checks
-# formatting and lints first).
+# formatting and lints first). `fuzz` is cargo-fuzz (scripts/fuzz.sh).
 ISOMARCH_PACKAGES_SLURM=(slurm-wlm munge)
 ISOMARCH_COMPONENTS=()
+ISOMARCH_CARGO_TOOLS=()
 for _isomarch_set in ${ISOMARCH_WITH:-}; do
     case "$_isomarch_set" in
         slurm) ISOMARCH_PACKAGES+=("${ISOMARCH_PACKAGES_SLURM[@]}") ;;
         lint) ISOMARCH_COMPONENTS+=(rustfmt clippy) ;;
-        *) echo "isomarch: ISOMARCH_WITH names an unknown package set $_isomarch_set (known: slurm, lint)" >&2; exit 1 ;;
+        fuzz) ISOMARCH_CARGO_TOOLS+=(cargo-fuzz) ;;
+        *) echo "isomarch: ISOMARCH_WITH names an unknown package set $_isomarch_set (known: slurm, lint, fuzz)" >&2; exit 1 ;;
     esac
 done
 
@@ -65,12 +68,54 @@ isomarch_install_packages() {
             rustup component add "$component" >&2
         fi
     done
+    local tool
+    for tool in ${ISOMARCH_CARGO_TOOLS[@]+"${ISOMARCH_CARGO_TOOLS[@]}"}; do
+        if ! cargo "${tool#cargo-}" --version >/dev/null 2>&1; then
+            echo "isomarch: installing $tool" >&2
+            cargo install --locked "$tool" >&2
+        fi
+    done
 }
 
 isomarch_install_packages
 
 ISOMARCH_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 export ISOMARCH_ROOT
+
+# Merges Debian's static shaderc, glslang, SPIRV-Tools and libstdc++ into one
+# archive, .shaderc/libshaderc_combined.a, where .cargo/config.toml points
+# shaderc-sys: linking it takes seconds, building shaderc from source about 8
+# minutes. One archive, because the linker rescans a single archive until
+# nothing new resolves, and glslang's libraries reference each other; and
+# libstdc++ inside it, because shaderc-sys asks for no C++ runtime when it
+# links a prebuilt library. Debian's own libshaderc.so is underlinked (its
+# glslang symbols are undefined), hence the archives. Written to a temporary
+# name and renamed, so an interrupted merge leaves nothing half-written; if
+# an archive is missing, no folder is made and cargo builds shaderc from
+# source as before.
+isomarch_shaderc_archive() {
+    local dir="$ISOMARCH_ROOT/.shaderc" lib=/usr/lib/x86_64-linux-gnu
+    [ -f "$dir/libshaderc_combined.a" ] && return 0
+    [ -n "${SHADERC_LIB_DIR:-}" ] && return 0
+    local stdcxx archives=() a
+    stdcxx=$(g++ -print-file-name=libstdc++.a 2>/dev/null || true)
+    for a in shaderc_combined glslang MachineIndependent GenericCodeGen OSDependent OGLCompiler SPIRV \
+        glslang-default-resource-limits HLSL SPIRV-Tools-opt SPIRV-Tools; do
+        archives+=("$lib/lib$a.a")
+    done
+    archives+=("$stdcxx")
+    for a in "${archives[@]}"; do
+        if [ ! -f "$a" ]; then
+            echo "isomarch: $a is missing; shaderc will be built from source (about 8 minutes)" >&2
+            return 0
+        fi
+    done
+    mkdir -p "$dir"
+    local tmp="$dir/.libshaderc_combined.a.$$"
+    { echo "CREATE $tmp"; printf 'ADDLIB %s\n' "${archives[@]}"; echo SAVE; echo END; } | ar -M
+    mv "$tmp" "$dir/libshaderc_combined.a"
+}
+isomarch_shaderc_archive
 # One target dir outside the clone, kept across clones and CI runs, so that
 # shaderc (about 8 minutes from source on 2 cores) is built once.
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/isomarch-target}"

@@ -26,7 +26,9 @@ pub fn register_font() -> Result<()> {
 /// Draws one chart of `size` pixels twice, with `draw_png` into `png` and
 /// with `draw_svg` into `svg`: each is drawn to a temporary name in the
 /// same folder and renamed into place, and nothing is left behind on
-/// failure.
+/// failure. The bitmap is drawn into memory and encoded with `image` (the
+/// encoder every other PNG here uses; plotters' own would build a second
+/// version of `image`).
 pub fn write_png_svg(
     png: &Path,
     svg: &Path,
@@ -39,11 +41,15 @@ pub fn write_png_svg(
         let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let stem = path.file_stem().ok_or_else(|| anyhow!("{} has no file name", path.display()))?;
-        // The bitmap backend picks its format from the extension.
         Ok(dir.join(format!(".{}.{}.{ext}", stem.to_string_lossy(), std::process::id())))
     };
     let (tmp_png, tmp_svg) = (temp(png, "png")?, temp(svg, "svg")?);
-    let drawn = draw_png(BitMapBackend::new(&tmp_png, size))
+    let mut pixels = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    let drawn = draw_png(BitMapBackend::with_buffer(&mut pixels, size))
+        .and_then(|()| {
+            image::save_buffer_with_format(&tmp_png, &pixels, size.0, size.1, image::ExtendedColorType::Rgb8, image::ImageFormat::Png)
+                .with_context(|| format!("writing {}", tmp_png.display()))
+        })
         .and_then(|()| draw_svg(SVGBackend::new(&tmp_svg, size)))
         .and_then(|()| std::fs::rename(&tmp_png, png).with_context(|| format!("writing {}", png.display())))
         .and_then(|()| std::fs::rename(&tmp_svg, svg).with_context(|| format!("writing {}", svg.display())));
