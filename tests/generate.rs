@@ -203,6 +203,16 @@ fn batch_frames_log_each_index_build() {
     for b in &builds {
         assert!(b.parse::<f64>().is_ok_and(|ms| ms > 0.0), "an animated scene rebuilds its index every frame: {builds:?}");
     }
+    // Each batch frame is the single frame at its time (n / 25 fps), byte
+    // for byte; and the frames differ, so the comparison has moving blobs.
+    let frame = |n: usize| std::fs::read(dir.join(format!("m_{n:04}.png"))).unwrap();
+    assert_ne!(frame(0), frame(2), "the blobs do not move between frames 0 and 2");
+    for n in [1usize, 2] {
+        let single = dir.join(format!("single_{n}.png"));
+        let time = format!("{}", n as f64 / 25.0);
+        run_ok(&["render", moving.to_str().unwrap(), "--size", "24x24", "--time", &time, "-o", single.to_str().unwrap()]);
+        assert!(frame(n) == std::fs::read(&single).unwrap(), "batch frame {n} differs from render --time {time}");
+    }
     // Without an index the column is empty.
     let csv = dir.join("fig10.csv");
     let pattern = dir.join("f_####.png");

@@ -40,7 +40,9 @@ fn tolerance(s: &Scene) -> f64 {
 
 /// `methods`' first hits on `rays` (opaque) agree with the f64 reference:
 /// no miss, no false hit.
-fn assert_first_hits(renderer: &mut Renderer, s: &Scene, rays: &[GpuRay], methods: &[Method], what: &str) {
+/// Every method's first hits on `rays` agree with the reference (no miss,
+/// no false hit); returns the reference's hit count.
+fn assert_first_hits(renderer: &mut Renderer, s: &Scene, rays: &[GpuRay], methods: &[Method], what: &str) -> usize {
     let reference = reference_hits(s, rays, false);
     let tol = tolerance(s);
     for &method in methods {
@@ -48,6 +50,7 @@ fn assert_first_hits(renderer: &mut Renderer, s: &Scene, rays: &[GpuRay], method
         let acc = accuracy(&out.results, &reference, tol, tol);
         assert!(acc.misses + acc.false_hits == 0, "{method} {what}: {} missed, {} false", acc.misses, acc.false_hits);
     }
+    reference.iter().filter(|h| h.is_some()).count()
 }
 
 fn assert_finite(results: &[GpuResult], what: &str) {
@@ -133,7 +136,45 @@ fn moved_primitives_rebuild_the_index() {
     }
     renderer.set_scene(&moved).unwrap();
     let rays = protocol_rays(&s.bounds, 256, 8);
-    assert_first_hits(&mut renderer, &moved, &rays, &[Method::Segment, Method::QuadraticTaylor], "after the move");
+    let hits = assert_first_hits(&mut renderer, &moved, &rays, &[Method::Segment, Method::QuadraticTaylor], "after the move");
+    assert!(4 * hits >= rays.len(), "only {hits} of {} rays hit the moved blobs: too few to test", rays.len());
+    assert_no_validation(&ctx);
+}
+
+/// A scene of `generate particles --motion` (150 moving blobs, so indexed)
+/// posed through its own Animation (`Scene::at_time`, as `render --time`
+/// and the viewer pose it) at three times: one renderer, its index rebuilt
+/// by `set_scene` at each, agrees with the reference at each, on rays
+/// that hit often enough to test.
+#[test]
+fn an_animated_scene_matches_the_reference_at_three_times() {
+    let path = scratch("index-animated").join("moving.ron");
+    let out = std::process::Command::new(bin())
+        .args(["generate", "particles", "--count", "150", "--seed", "4", "--motion", "-o"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s = Scene::load(&path).unwrap();
+    assert!(!s.animation.is_static() && s.primitive_count() == 150, "{} primitives", s.primitive_count());
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    let centers = |s: &Scene| -> Vec<DVec3> {
+        s.primitives().filter_map(|p| if let isomarch::scene::Primitive::Point { center, .. } = p { Some(*center) } else { None }).collect()
+    };
+    for t in [0.0, 0.7, 1.9] {
+        let posed = s.at_time(t);
+        if t > 0.0 {
+            let moved = centers(&posed).iter().zip(centers(&s)).filter(|(a, b)| a.distance(*b) > 0.05).count();
+            assert!(moved >= 50, "t = {t}: only {moved} blobs moved: the times test nothing");
+        }
+        renderer.set_scene(&posed).unwrap();
+        assert!(renderer.index_stats().is_some(), "150 primitives march with the index");
+        let rays = protocol_rays(&posed.bounds, 256, 12);
+        let hits =
+            assert_first_hits(&mut renderer, &posed, &rays, &[Method::Segment, Method::QuadraticTaylor, Method::Quadratic], &format!("at t = {t}"));
+        assert!(4 * hits >= rays.len(), "t = {t}: only {hits} of {} rays hit: too few to test", rays.len());
+    }
     assert_no_validation(&ctx);
 }
 

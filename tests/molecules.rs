@@ -240,6 +240,37 @@ fn batch_frames_turn_the_camera_around_the_molecule() {
     // A period of 4 s at 1 fps: frame 4 is frame 0 again (the angle is 2π,
     // whose cosine and sine round to within an ulp of 1 and 0).
     assert!(differing(&f0, &f4) <= 8, "one full turn later the frame differs in {} pixels", differing(&f0, &f4));
+    // A quarter turn of the camera about the vertical is the world (atoms
+    // and lights) turned a quarter back about the vertical through the
+    // target, seen from the resting camera: frame 1 against that scene,
+    // written independently of the orbit's code.
+    let ron = dir.join("rest.ron");
+    let out = run(&["scene", pdb_1a8o().to_str().unwrap(), "-o", ron.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut file = isomarch::scene::file::parse(&std::fs::read_to_string(&ron).unwrap(), "rest.ron").unwrap();
+    let (target, up) = (glam::DVec3::from(file.camera.target), glam::DVec3::from(file.camera.up).normalize());
+    let back = glam::DQuat::from_axis_angle(up, -std::f64::consts::FRAC_PI_2);
+    let mut turned = 0;
+    for group in &mut file.groups {
+        for p in &mut group.primitives {
+            if let isomarch::scene::file::PrimitiveFile::Point { center, .. } = p {
+                *center = (target + back * (glam::DVec3::from(*center) - target)).to_array();
+                turned += 1;
+            }
+        }
+    }
+    for light in &mut file.lights {
+        light.direction = (back * glam::DVec3::from(light.direction)).to_array();
+    }
+    assert!(turned > 100 && file.bounds.is_none(), "{turned} atoms turned");
+    let turned_ron = dir.join("turned.ron");
+    std::fs::write(&turned_ron, ron::ser::to_string(&file).unwrap()).unwrap();
+    let still = dir.join("turned.png");
+    let out = run(&["render", turned_ron.to_str().unwrap(), "--size", "40x40", "-o", still.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let still = image::open(&still).unwrap().to_rgb8();
+    let d = differing(&f1, &still);
+    assert!(d <= 8, "a quarter turn of the camera differs from the world turned back in {d} pixels");
 }
 
 /// On a sample of a molecule's camera rays (`bench --camera`), every
