@@ -13,6 +13,7 @@ pub mod bench;
 pub mod field;
 pub mod generate;
 pub mod gpu;
+pub mod inputs;
 pub mod layout;
 pub mod method;
 pub mod molecule;

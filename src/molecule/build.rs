@@ -245,8 +245,12 @@ pub fn scene_text(m: &Molecule, o: &MoleculeOptions) -> Result<(String, Notes)> 
 
 /// The scene of the molecule file at `path` (see [`scene_text`]).
 pub fn load_scene(path: &std::path::Path, o: &MoleculeOptions) -> Result<(Scene, Notes)> {
-    let m = super::read(path)?;
-    let (text, notes) = scene_text(&m, o)?;
+    scene_of(&super::read(path)?, o)
+}
+
+/// The scene of a molecule read (see [`scene_text`]).
+pub fn scene_of(m: &Molecule, o: &MoleculeOptions) -> Result<(Scene, Notes)> {
+    let (text, notes) = scene_text(m, o)?;
     let scene = Scene::parse(&text, &m.source)?;
     Ok((scene, notes))
 }

@@ -54,7 +54,9 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
     let count_line = lines.get(1).ok_or_else(|| err(lines.len().max(1), "the file is cut short before its atom count (line 2)".into()))?;
     let count: usize = count_line.trim().parse().map_err(|_| err(2, format!("the atom count {:?} is not a whole number", count_line.trim())))?;
     let cut_short = !text.ends_with('\n');
-    let mut atoms = Vec::with_capacity(count);
+    // Never more atoms than the file has lines: a count of 10^18 is an
+    // error below (the file is cut short), not an allocation (fuzz/).
+    let mut atoms = Vec::with_capacity(count.min(lines.len()));
     let (mut skipped, mut first_skipped) = (0usize, 0usize);
     let mut chain = 1usize;
     let mut last_residue: Option<i64> = None;
@@ -114,6 +116,13 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_atom_count_beyond_the_file_is_an_error_not_an_allocation() {
+        // The fuzzer's first crash (fuzz/regressions/gro): capacity overflow.
+        let e = parse("t\n 2222222222222222222 \n2 6\n", "big.gro").unwrap_err();
+        assert_eq!(e.to_string(), "big.gro:3: this atom line has 3 columns; its coordinates need columns 21-44");
+    }
 
     #[test]
     fn names_give_elements_and_dummies_are_skipped() {

@@ -91,20 +91,27 @@ pub fn is_molecule(path: &Path) -> bool {
     format_of(path).is_some()
 }
 
+/// The most text a molecule file may hold once decompressed: 1 GiB, ten
+/// times the largest mmCIF in the PDB archive. A gzip stream that inflates
+/// beyond it (a decompression bomb, or a corrupt length) is an error before
+/// it can fill memory.
+pub const MAX_TEXT_BYTES: u64 = 1 << 30;
+
 /// The file's text, decompressed when it is gzip (by its magic bytes, so a
 /// `.gz` name is not required). A gzip stream cut short is an error naming
 /// the last whole line it held.
-fn read_text(path: &Path) -> Result<String, MoleculeError> {
-    let file = path.display().to_string();
-    let err = |line: Option<usize>, message: String| MoleculeError { file: file.clone(), line, message };
-    let bytes = std::fs::read(path).map_err(|e| err(None, format!("cannot read: {e}")))?;
+fn text_of(bytes: Vec<u8>, file: &str) -> Result<String, MoleculeError> {
+    let err = |line: Option<usize>, message: String| MoleculeError { file: file.into(), line, message };
     let bytes = if bytes.starts_with(&[0x1f, 0x8b]) {
         let mut out = Vec::new();
-        let mut decoder = flate2::read::MultiGzDecoder::new(&bytes[..]);
+        let mut decoder = flate2::read::MultiGzDecoder::new(&bytes[..]).take(MAX_TEXT_BYTES + 1);
         if let Err(e) = decoder.read_to_end(&mut out) {
             let lines = out.iter().filter(|&&b| b == b'\n').count();
             let what = if e.kind() == std::io::ErrorKind::UnexpectedEof { "is cut short".to_string() } else { format!("is corrupt ({e})") };
             return Err(err(Some(lines + 1), format!("the gzip stream {what}: its content ends inside this line")));
+        }
+        if out.len() as u64 > MAX_TEXT_BYTES {
+            return Err(err(None, format!("the gzip stream inflates to more than {} MiB, more than any molecule file holds", MAX_TEXT_BYTES >> 20)));
         }
         out
     } else {
@@ -129,11 +136,18 @@ pub fn read(path: &Path) -> Result<Molecule, MoleculeError> {
             message: "not a molecule file: expected .pdb, .ent, .cif, .mmcif or .gro, optionally .gz".into(),
         });
     };
-    let text = read_text(path)?;
+    let bytes = std::fs::read(path).map_err(|e| MoleculeError { file: file.clone(), line: None, message: format!("cannot read: {e}") })?;
+    parse_bytes(bytes, format, &file)
+}
+
+/// [`read`] on a file's bytes, in the given format: `file` names it in
+/// errors. The entry point of the fuzz targets (fuzz/).
+pub fn parse_bytes(bytes: Vec<u8>, format: Format, file: &str) -> Result<Molecule, MoleculeError> {
+    let text = text_of(bytes, file)?;
     let molecule = match format {
-        Format::Pdb => pdb::parse(&text, &file)?,
-        Format::Cif => cif::parse(&text, &file)?,
-        Format::Gro => gro::parse(&text, &file)?,
+        Format::Pdb => pdb::parse(&text, file)?,
+        Format::Cif => cif::parse(&text, file)?,
+        Format::Gro => gro::parse(&text, file)?,
     };
     if molecule.atoms.is_empty() {
         let last = text.lines().count();
@@ -142,7 +156,11 @@ pub fn read(path: &Path) -> Result<Molecule, MoleculeError> {
             Format::Cif => "no _atom_site row",
             Format::Gro => "no atom line",
         };
-        return Err(MoleculeError { file, line: Some(last.max(1)), message: format!("the file ends here with {what}: no atoms to render") });
+        return Err(MoleculeError {
+            file: file.into(),
+            line: Some(last.max(1)),
+            message: format!("the file ends here with {what}: no atoms to render"),
+        });
     }
     Ok(molecule)
 }

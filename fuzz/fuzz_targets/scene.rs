@@ -1,0 +1,5 @@
+#![no_main]
+//! Fuzzes isomarch::inputs::read("scene", ..): a scene or a one-line error.
+libfuzzer_sys::fuzz_target!(|data: &[u8]| {
+    isomarch::inputs::check("scene", data);
+});
