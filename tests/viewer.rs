@@ -378,6 +378,30 @@ fn the_window_shows_the_offscreen_frame() {
     assert!(d == 0, "the window differs from the offscreen frame by up to {d} per channel (saved {})", dir.display());
 }
 
+#[test]
+fn a_paused_viewer_shows_the_frame_render_makes_at_its_time() {
+    // An animated scene of more than 64 primitives (indexed, the index
+    // rebuilt for the posed blobs): the window paused at t = 1.5 s against
+    // `isomarch render --time 1.5`, byte for byte as above; and t = 0
+    // differs, so the time is what is compared.
+    let dir = scratch("viewer-paused-moving");
+    let scene = dir.join("moving.ron");
+    let generated =
+        Command::new(bin()).args(["generate", "particles", "--count", "150", "--seed", "4", "--motion", "-o"]).arg(&scene).output().unwrap();
+    assert!(generated.status.success(), "generate failed:\n{}", String::from_utf8_lossy(&generated.stderr));
+    let s = Session::open(&[scene.to_str().unwrap(), "--size", "64x64", "--paused", "--time", "1.5"]);
+    let (title, shown) = s.settled();
+    s.close();
+    assert!(title.contains("1.50"), "title: {title}");
+    let at = |t: &str| render(&scene, &dir.join(format!("moving-{t}.png")), &["--size", "64x64", "--time", t]);
+    let (offscreen, start) = (at("1.5"), at("0"));
+    assert!(colours(&dir.join("moving-1.5.png"), (64, 64)) > 50, "the offscreen frame is nearly uniform");
+    shown.save(dir.join("moving-window.png")).unwrap();
+    let d = max_channel_diff(&shown, &offscreen);
+    assert!(d == 0, "the paused window differs from render --time 1.5 by up to {d} per channel (saved {})", dir.display());
+    assert!(max_channel_diff(&shown, &start) > 20, "the blobs do not move between t = 0 and t = 1.5 s");
+}
+
 /// The scene time a title shows ("t = 1.00 s").
 fn title_time(title: &str) -> f64 {
     let at = title.find("t = ").unwrap_or_else(|| panic!("no time in the title: {title}"));
