@@ -25,6 +25,7 @@ fn run() -> Result<(), String> {
     let shaders = root.join("shaders");
     let include_dir = shaders.join("include");
     println!("cargo:rerun-if-changed=src/layout.rs");
+    say_which_shaderc();
     // Directories themselves, so that adding a shader file reruns the build.
     println!("cargo:rerun-if-changed={}", shaders.display());
     println!("cargo:rerun-if-changed={}", include_dir.display());
@@ -123,6 +124,21 @@ fn compile(
         .compile_into_spirv(&source, shaderc::ShaderKind::Compute, &name, "main", Some(&options))
         .map_err(|e| format!("shader compilation failed ({stem}):\n{e}"))?;
     std::fs::write(out.join(format!("{stem}.spv")), artifact.as_binary_u8()).map_err(|e| format!("writing {stem}.spv: {e}"))
+}
+
+/// Says in the build's output which shaderc compiles the shaders: Debian's
+/// static libraries, merged by scripts/env.sh into the folder that
+/// SHADERC_LIB_DIR names (.cargo/config.toml), or, where that folder holds
+/// no archive, the one shaderc-sys built from source (the fallback).
+fn say_which_shaderc() {
+    println!("cargo:rerun-if-env-changed=SHADERC_LIB_DIR");
+    let archive = std::env::var_os("SHADERC_LIB_DIR").map(|d| PathBuf::from(d).join("libshaderc_combined.a")).filter(|a| a.is_file());
+    match archive {
+        Some(a) => println!("cargo:warning=shaderc: linked from the system's static libraries ({})", a.display()),
+        None => println!(
+            "cargo:warning=shaderc: built from source (about 8 minutes once): no libshaderc_combined.a where SHADERC_LIB_DIR points; scripts/env.sh merges Debian's there"
+        ),
+    }
 }
 
 fn sorted_files(dir: &Path, extension: &str) -> Result<Vec<PathBuf>, String> {

@@ -424,15 +424,7 @@ fn summarise_times(reports: &mut [MethodReport], times: &[Vec<Option<f64>>]) {
 /// `VALIDITY_SAMPLE_RAYS` rays.
 fn validity_kept(scene: &Scene, method: Method, quad: QuadSettings, rays: &[GpuRay]) -> f64 {
     let field = Field::new(scene);
-    let settings = MarchSettings {
-        min_step: scene.marching.min_step,
-        max_steps: scene.marching.max_steps,
-        growth: scene.marching.growth.unwrap_or_else(|| method.default_growth()),
-        tolerance: scene.refine_tolerance(),
-        quad,
-        refine: scene.marching.refine,
-        transparent: scene.transparency.is_some(),
-    };
+    let settings = MarchSettings { quad, ..MarchSettings::for_scene(scene, method) };
     let (kept, steps) = rays
         .par_iter()
         .take(VALIDITY_SAMPLE_RAYS)

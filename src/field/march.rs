@@ -28,6 +28,22 @@ pub struct MarchSettings {
     pub transparent: bool,
 }
 
+impl MarchSettings {
+    /// What `scene` marches `method` with: its file's marching settings,
+    /// and the method's default interval growth unless the file sets one.
+    pub fn for_scene(scene: &crate::scene::Scene, method: Method) -> MarchSettings {
+        MarchSettings {
+            min_step: scene.marching.min_step,
+            max_steps: scene.marching.max_steps,
+            growth: scene.marching.growth.unwrap_or_else(|| method.default_growth()),
+            tolerance: scene.refine_tolerance(),
+            quad: scene.marching.quad,
+            refine: scene.marching.refine,
+            transparent: scene.transparency.is_some(),
+        }
+    }
+}
+
 /// What an f64 march found: the hit distance (the inside end of the
 /// refined bracket) and the steps taken; `None` hit on a miss.
 #[derive(Clone, Debug, PartialEq)]
