@@ -11,6 +11,7 @@ ISOMARCH_PACKAGES=(
     libx11-6 libx11-xcb1 libxcursor1 libxi6 libxrandr2 libxkbcommon-x11-0  # loaded by the window code
     libshaderc-dev glslang-dev       # shaderc and glslang as static archives, linked in seconds (isomarch_shaderc_archive)
     cmake python3 g++ git            # the source build of shaderc, where those archives cannot be merged
+    python3-venv                     # the Python package's tests (scripts/python-test.sh)
     glslang-tools spirv-tools vulkan-tools  # inspection: glslangValidator, spirv-dis, vulkaninfo
     ca-certificates curl pkg-config
     fonts-dejavu-core                # the font of `isomarch tradeoff`'s plots

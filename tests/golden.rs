@@ -205,7 +205,7 @@ fn mean_steps_per_ray_of_every_method_on_every_shipped_scene_match_the_record() 
         let (rays, _) = isomarch::render::rays::camera_rays(&s.camera, STEP_COUNT_SIZE, STEP_COUNT_SIZE, &s.bounds);
         let steps: u64 = rays
             .iter()
-            .map(|r| isomarch::render::rays::Ray::from_gpu(r))
+            .map(isomarch::render::rays::Ray::from_gpu)
             .filter(|ray| !ray.misses())
             .map(|ray| u64::from(isomarch::field::march::march(&field, method, ray.o, ray.d, ray.t0, ray.t1, settings).steps))
             .sum();

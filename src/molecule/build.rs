@@ -164,18 +164,7 @@ pub fn scene_text(m: &Molecule, o: &MoleculeOptions) -> Result<(String, Notes)> 
             Coloring::None => None,
         }
     };
-    // The camera frames the sphere around the box's centre that holds
-    // every atom's surface radius, with 5% to spare.
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for a in &atoms {
-        lo = lo.min(a.position);
-        hi = hi.max(a.position);
-    }
-    let center = 0.5 * (lo + hi);
-    let reach = atoms.iter().map(|a| (a.position - center).length() + radius(&a.element)).fold(0.0, f64::max);
-    let distance = 1.05 * reach / (0.5 * FOV_Y.to_radians()).sin();
-    let eye = center + DVec3::new(0.0, 0.0, distance);
-    let weight = o.sharpness.exp();
+    let balls: Vec<Ball> = atoms.iter().map(|a| Ball { center: a.position, radius: radius(&a.element), color: color(a) }).collect();
     let hydrogens = m.atoms.len() - atoms.len();
     notes.summary = format!(
         "{}: {} atoms{}{}{}, {} chain{}",
@@ -188,12 +177,10 @@ pub fn scene_text(m: &Molecule, o: &MoleculeOptions) -> Result<(String, Notes)> 
         if chains.len() == 1 { "" } else { "s" },
     );
 
-    let mut s = String::new();
-    // Writing to a String cannot fail.
-    let _ = writeln!(s, "// Made by isomarch from {} (src/molecule/build.rs, docs/molecules.md).", m.source);
-    let _ = writeln!(
-        s,
-        "// {} atoms, one Gaussian each: r = {} x Bondi's van der Waals radius, s = {}, weight e^s; iso {}; colours by {}.",
+    let made_by = format!(
+        "// Made by isomarch from {} (src/molecule/build.rs, docs/molecules.md).\n\
+         // {} atoms, one Gaussian each: r = {} x Bondi's van der Waals radius, s = {}, weight e^s; iso {}; colours by {}.",
+        m.source,
         atoms.len(),
         num(o.radius_scale),
         num(o.sharpness),
@@ -204,6 +191,37 @@ pub fn scene_text(m: &Molecule, o: &MoleculeOptions) -> Result<(String, Notes)> 
             Coloring::None => "nothing (surface)",
         }
     );
+    Ok((balls_text(&made_by, &balls, o), notes))
+}
+
+/// One atom as drawn: its centre, its radius (Å, `radius_scale` applied)
+/// and its colour (linear RGB; `None`: the scene's surface colour).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ball {
+    pub center: DVec3,
+    pub radius: f64,
+    pub color: Option<[f64; 3]>,
+}
+
+/// The scene of `balls` as RON text, after the comment lines `made_by`:
+/// one Gaussian blob per ball (r its radius, s and iso from `o`), a camera
+/// on +z framing them all, the molecule scenes' lights and marching.
+pub fn balls_text(made_by: &str, balls: &[Ball], o: &MoleculeOptions) -> String {
+    // The camera frames the sphere around the box's centre that holds
+    // every atom's surface radius, with 5% to spare.
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for b in balls {
+        lo = lo.min(b.center);
+        hi = hi.max(b.center);
+    }
+    let center = 0.5 * (lo + hi);
+    let reach = balls.iter().map(|b| (b.center - center).length() + b.radius).fold(0.0, f64::max);
+    let distance = 1.05 * reach / (0.5 * FOV_Y.to_radians()).sin();
+    let eye = center + DVec3::new(0.0, 0.0, distance);
+    let weight = o.sharpness.exp();
+    let mut s = String::new();
+    // Writing to a String cannot fail.
+    let _ = writeln!(s, "{made_by}");
     let _ = writeln!(s, "Scene(");
     let _ = writeln!(s, "    camera: (");
     let _ = writeln!(s, "        eye: {},", vec3(eye));
@@ -224,23 +242,55 @@ pub fn scene_text(m: &Molecule, o: &MoleculeOptions) -> Result<(String, Notes)> 
     let _ = writeln!(s, "    iso: {},", num(o.iso));
     let _ = writeln!(s, "    marching: (method: {METHOD:?}, min_step: {}, max_steps: {MAX_STEPS}),", num(MIN_STEP));
     let _ = writeln!(s, "    groups: [(primitives: [");
-    for a in &atoms {
+    for b in balls {
         let _ = write!(
             s,
             "        Point(center: {}, kernel: Gaussian(r: {}, s: {}, weight: Some({}))",
-            vec3(a.position),
-            num(radius(&a.element)),
+            vec3(b.center),
+            num(b.radius),
             num(o.sharpness),
             num(weight)
         );
-        if let Some(c) = color(a) {
+        if let Some(c) = b.color {
             let _ = write!(s, ", color: Some(({}, {}, {}))", num(c[0]), num(c[1]), num(c[2]));
         }
         let _ = writeln!(s, "),");
     }
     let _ = writeln!(s, "    ])],");
     let _ = writeln!(s, ")");
-    Ok((s, notes))
+    s
+}
+
+/// The scene of atoms given as arrays (the Python package's
+/// `Scene.from_atoms`): centres in Å, van der Waals radii (Å, before
+/// `radius_scale`), colours in linear RGB or none (the surface colour).
+/// The same scene as [`scene_text`] makes of a file with these atoms.
+pub fn atoms_scene(centers: &[DVec3], radii: &[f64], colors: Option<&[[f64; 3]]>, o: &MoleculeOptions) -> Result<Scene> {
+    o.check()?;
+    if centers.is_empty() {
+        bail!("no atoms: positions is empty");
+    }
+    if radii.len() != centers.len() {
+        bail!("{} positions but {} radii", centers.len(), radii.len());
+    }
+    if let Some(c) = colors
+        && c.len() != centers.len()
+    {
+        bail!("{} positions but {} colors", centers.len(), c.len());
+    }
+    if let Some(i) = centers.iter().position(|c| !c.is_finite()) {
+        bail!("position {i} is not finite: {:?}", centers[i].to_array());
+    }
+    if let Some(i) = radii.iter().position(|r| !(r.is_finite() && *r > 0.0)) {
+        bail!("radius {i} must be positive, got {}", radii[i]);
+    }
+    if let Some((i, c)) = colors.and_then(|cs| cs.iter().enumerate().find(|(_, c)| !c.iter().all(|v| v.is_finite() && *v >= 0.0))) {
+        bail!("color {i} must be finite and non-negative, got {c:?}");
+    }
+    let balls: Vec<Ball> =
+        (0..centers.len()).map(|i| Ball { center: centers[i], radius: radii[i] * o.radius_scale, color: colors.map(|c| c[i]) }).collect();
+    let made_by = format!("// Made by isomarch from {} atoms given as arrays.", balls.len());
+    Ok(Scene::parse(&balls_text(&made_by, &balls, o), "atoms")?)
 }
 
 /// The scene of the molecule file at `path` (see [`scene_text`]).

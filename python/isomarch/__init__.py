@@ -1,0 +1,212 @@
+"""isomarch from Python: implicit surfaces and molecules, ray marched on the
+GPU (Vulkan; lavapipe on machines without one) with the forward inclusion
+functions of Aydinlilar & Zanni, into numpy arrays.
+
+>>> import isomarch
+>>> scene = isomarch.Scene.from_molecule("1A8O.pdb")
+>>> renderer = isomarch.Renderer()
+>>> image = renderer.render(scene, size=(256, 256))
+>>> image.rgba.shape
+(256, 256, 4)
+
+Errors raise :class:`IsomarchError` with the message the command line
+prints. The GPU works with the interpreter released.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _native
+from ._native import IsomarchError
+
+__all__ = ["Scene", "Renderer", "Image", "IsomarchError", "element_radius", "element_color"]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def element_radius(symbol: str) -> Optional[float]:
+    """Bondi's van der Waals radius of an element in ångström, or None."""
+    return _native.element_radius(symbol)
+
+
+def element_color(symbol: str) -> Tuple[float, float, float]:
+    """The colour molecule scenes give an element (Jmol's, linear RGB)."""
+    return _native.element_color(symbol)
+
+
+class Scene:
+    """A scene: a file's, a molecule's, or atoms given as arrays.
+
+    Build one with :meth:`load`, :meth:`from_molecule` or :meth:`from_atoms`.
+    """
+
+    def __init__(self, native: "_native.NativeScene", warnings: Sequence[str] = (), summary: str = ""):
+        self._native = native
+        #: Warnings from reading a molecule (elements without a radius).
+        self.warnings = list(warnings)
+        #: What a molecule became: atoms used and left out.
+        self.summary = summary
+
+    @staticmethod
+    def load(path: PathLike) -> "Scene":
+        """Reads, parses and validates a scene file (.ron)."""
+        return Scene(_native.scene_load(os.fspath(path)))
+
+    @staticmethod
+    def from_molecule(
+        path: PathLike,
+        *,
+        hydrogens: bool = False,
+        sharpness: float = 2.0,
+        radius_scale: float = 1.0,
+        iso: float = 1.0,
+        coloring: str = "element",
+        turntable: Optional[float] = None,
+    ) -> "Scene":
+        """The scene of a PDB, mmCIF or GRO file (optionally gzipped): one
+        Gaussian blob per atom, as ``isomarch scene`` and ``render`` make it.
+
+        ``coloring`` is ``"element"``, ``"chain"`` or ``"none"``;
+        ``turntable`` is seconds per turn of the camera about the vertical.
+        """
+        native, warnings, summary = _native.scene_from_molecule(
+            os.fspath(path), hydrogens, float(sharpness), float(radius_scale), float(iso), coloring, turntable
+        )
+        return Scene(native, warnings, summary)
+
+    @staticmethod
+    def from_atoms(
+        positions,
+        radii,
+        colors=None,
+        *,
+        sharpness: float = 2.0,
+        radius_scale: float = 1.0,
+        iso: float = 1.0,
+        turntable: Optional[float] = None,
+    ) -> "Scene":
+        """The scene of atoms given as arrays, as :meth:`from_molecule` makes
+        it of a file with the same atoms: ``positions`` (N, 3) in ångström,
+        ``radii`` (N,) van der Waals radii in ångström, ``colors`` (N, 3)
+        linear RGB or None (one surface colour). Any array-like works: an
+        MDAnalysis selection's ``positions``, a gemmi structure's.
+        """
+        positions = np.ascontiguousarray(positions, dtype=np.float64)
+        radii = np.ascontiguousarray(radii, dtype=np.float64).reshape(-1)
+        if positions.ndim != 2:
+            raise IsomarchError(f"positions must have shape (N, 3), got {positions.shape}")
+        if colors is not None:
+            colors = np.ascontiguousarray(colors, dtype=np.float64)
+            if colors.ndim != 2:
+                raise IsomarchError(f"colors must have shape (N, 3), got {colors.shape}")
+        native = _native.scene_from_atoms(
+            positions, radii, colors, float(sharpness), float(radius_scale), float(iso), turntable
+        )
+        return Scene(native)
+
+    @property
+    def primitive_count(self) -> int:
+        """Primitives in the scene (atoms, for a molecule)."""
+        return self._native.primitive_count
+
+    @property
+    def resolution(self) -> Tuple[int, int]:
+        """The camera's resolution (width, height): the default size."""
+        return self._native.resolution
+
+    @property
+    def method(self) -> str:
+        """The scene's marcher (``marching.method``)."""
+        return self._native.method
+
+    @property
+    def animated(self) -> bool:
+        """Whether anything moves over scene time."""
+        return self._native.animated
+
+    def __repr__(self) -> str:
+        w, h = self.resolution
+        return f"<isomarch.Scene {self._native.source!r}: {self.primitive_count} primitives, {w}x{h}, {self.method}>"
+
+
+class Image:
+    """A rendered frame: ``rgba`` (H, W, 4) uint8 (sRGB, alpha 255), and the
+    per-pixel ``depth`` (H, W) float32 (hit distance, inf on a miss),
+    ``steps`` (H, W) uint32 (marching steps) and ``normals`` (H, W, 3)
+    float32 (0 on a miss), with the frame's ``stats``. It converts to a
+    numpy array (``np.asarray(image)`` is ``rgba``) and shows itself in
+    Jupyter.
+    """
+
+    def __init__(self, raw: dict, width: int, height: int):
+        self.width, self.height = width, height
+        self.rgba: np.ndarray = raw["rgba"].reshape(height, width, 4)
+        self.depth: np.ndarray = raw["depth"].reshape(height, width)
+        self.steps: np.ndarray = raw["steps"].reshape(height, width)
+        self.normals: np.ndarray = raw["normals"].reshape(height, width, 3)
+        #: Steps, evaluations and times per ray, as ``render --stats`` writes them.
+        self.stats: dict = raw["stats"]
+        self.method: str = raw["method"]
+        self.device: str = raw["device"]
+
+    def __array__(self, dtype=None, copy=None):
+        return self.rgba if dtype is None else self.rgba.astype(dtype)
+
+    def to_float(self) -> np.ndarray:
+        """The image as (H, W, 4) float32 in [0, 1]."""
+        return self.rgba.astype(np.float32) / 255.0
+
+    def png(self) -> bytes:
+        """PNG bytes, the file ``isomarch render -o x.png`` writes."""
+        return _native.png_bytes(self.rgba.reshape(-1), self.width, self.height)
+
+    def save(self, path: PathLike) -> None:
+        """Writes the PNG to ``path`` (whole, or not at all)."""
+        path = os.fspath(path)
+        tmp = f"{path}.{os.getpid()}.tmp"
+        with open(tmp, "wb") as f:
+            f.write(self.png())
+        os.replace(tmp, path)
+
+    def _repr_png_(self) -> bytes:
+        return self.png()
+
+    def __repr__(self) -> str:
+        return f"<isomarch.Image {self.width}x{self.height} {self.method} on {self.device}: {self.stats['steps_per_ray']:.2f} steps/ray>"
+
+
+class Renderer:
+    """Renders scenes on one Vulkan device, keeping its context between
+    calls. ``device`` picks one by index or by a part of its name (as
+    ``isomarch --device``); None picks a discrete GPU, then an integrated
+    one, then the CPU driver. ``timeout`` is seconds per frame.
+    """
+
+    def __init__(self, device: Optional[str] = None, timeout: float = 600.0):
+        self._native = _native.NativeRenderer(None if device is None else str(device), float(timeout))
+
+    @property
+    def device(self) -> str:
+        """The device's name."""
+        return self._native.device
+
+    def render(
+        self,
+        scene: Scene,
+        size: Optional[Tuple[int, int]] = None,
+        method: Optional[str] = None,
+        time: float = 0.0,
+    ) -> Image:
+        """Renders ``scene`` at scene ``time`` (seconds), ``size`` (width,
+        height; default the scene camera's), with ``method`` (default the
+        scene's): the same pixels as ``isomarch render``."""
+        width, height = scene.resolution if size is None else size
+        raw = self._native.render(scene._native, int(width), int(height), method, float(time))
+        return Image(raw, int(width), int(height))
+
+    def __repr__(self) -> str:
+        return f"<isomarch.Renderer on {self.device}>"

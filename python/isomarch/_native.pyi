@@ -1,0 +1,37 @@
+"""Type hints of the native module (python/src/lib.rs); use the classes of
+``isomarch`` instead."""
+
+from typing import Optional, Tuple
+
+import numpy as np
+
+class IsomarchError(Exception): ...
+
+class NativeScene:
+    primitive_count: int
+    resolution: Tuple[int, int]
+    method: str
+    source: str
+    animated: bool
+
+class NativeRenderer:
+    device: str
+    def __init__(self, device: Optional[str] = None, timeout: float = 600.0) -> None: ...
+    def render(self, scene: NativeScene, width: int, height: int, method: Optional[str], time: float) -> dict: ...
+
+def scene_load(path: str) -> NativeScene: ...
+def scene_from_molecule(
+    path: str, hydrogens: bool, sharpness: float, radius_scale: float, iso: float, coloring: str, turntable: Optional[float]
+) -> Tuple[NativeScene, list, str]: ...
+def scene_from_atoms(
+    positions: np.ndarray,
+    radii: np.ndarray,
+    colors: Optional[np.ndarray],
+    sharpness: float,
+    radius_scale: float,
+    iso: float,
+    turntable: Optional[float],
+) -> NativeScene: ...
+def element_radius(symbol: str) -> Optional[float]: ...
+def element_color(symbol: str) -> Tuple[float, float, float]: ...
+def png_bytes(rgba: np.ndarray, width: int, height: int) -> bytes: ...

@@ -1,0 +1,169 @@
+"""The Python package against the command line (docs/python.md).
+
+Run by scripts/python-test.sh (part of scripts/test.sh), which builds the
+package into a virtual environment and sets ISOMARCH_BIN to the command
+line built from the same tree.
+"""
+
+import os
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import OpenEXR
+import pytest
+from PIL import Image as PILImage
+
+import isomarch
+
+ROOT = Path(__file__).resolve().parents[2]
+PDB = ROOT / "tests/data/molecules/1A8O.pdb"
+
+
+def cli(*args, check=True):
+    binary = os.environ.get("ISOMARCH_BIN")
+    if not binary:
+        pytest.fail("ISOMARCH_BIN is not set: run the Python tests with bash scripts/python-test.sh")
+    run = subprocess.run([binary, *map(str, args)], capture_output=True, text=True, cwd=ROOT)
+    if check:
+        assert run.returncode == 0, run.stderr
+    return run
+
+
+@pytest.fixture(scope="module")
+def renderer():
+    return isomarch.Renderer()
+
+
+def png_pixels(path):
+    return np.asarray(PILImage.open(path).convert("RGB"))
+
+
+@pytest.mark.parametrize("scene,method,time", [("fig10.ron", None, 0.0), ("fig16.ron", "quadratic", 0.5), ("default.ron", "segment", 0.0)])
+def test_a_rendered_array_equals_the_cli_png_pixel_for_pixel(renderer, tmp_path, scene, method, time):
+    out = tmp_path / "cli.png"
+    args = ["render", ROOT / "scenes" / scene, "--size", "64x48", "--time", time, "-o", out]
+    if method:
+        args += ["--method", method]
+    cli(*args)
+    image = renderer.render(isomarch.Scene.load(ROOT / "scenes" / scene), size=(64, 48), method=method, time=time)
+    expected = png_pixels(out)
+    assert image.rgba.shape == (48, 64, 4) and image.rgba.dtype == np.uint8
+    assert (image.rgba[..., 3] == 255).all()
+    assert len(np.unique(expected.reshape(-1, 3), axis=0)) > 20, "the CLI's image is nearly uniform"
+    np.testing.assert_array_equal(image.rgba[..., :3], expected)
+    # The PNG the package writes is the CLI's, byte for byte.
+    assert image.png() == out.read_bytes()
+    assert image._repr_png_().startswith(b"\x89PNG")
+    assert np.asarray(image).shape == (48, 64, 4)
+    assert image.stats["rays"] == 64 * 48 and image.stats["steps_per_ray"] > 0
+
+
+def read_pdb_atoms(path):
+    """Heavy atoms of a one-model PDB without alternate locations, read
+    here, independently of isomarch's reader: (positions, elements)."""
+    positions, elements = [], []
+    for line in Path(path).read_text().splitlines():
+        if line.startswith(("ATOM  ", "HETATM")):
+            element = line[76:78].strip().capitalize()
+            assert line[16] == " ", "the test file has no alternate locations"
+            if element in ("H", "D"):
+                continue
+            positions.append([float(line[30:38]), float(line[38:46]), float(line[46:54])])
+            elements.append(element)
+    return np.array(positions), elements
+
+
+def test_from_atoms_with_a_pdbs_coordinates_is_from_molecule_on_that_pdb(renderer):
+    positions, elements = read_pdb_atoms(PDB)
+    radii = [isomarch.element_radius(e) for e in elements]
+    assert all(r is not None for r in radii)
+    colors = [isomarch.element_color(e) for e in elements]
+    atoms = isomarch.Scene.from_atoms(positions, radii, colors)
+    molecule = isomarch.Scene.from_molecule(PDB)
+    assert atoms.primitive_count == molecule.primitive_count == len(elements) == 644
+    a = renderer.render(atoms, size=(48, 48))
+    m = renderer.render(molecule, size=(48, 48))
+    assert (m.depth < np.inf).sum() > 300, "the molecule covers too little of the frame to compare"
+    # The same scene; 644 atoms march with the spatial index, whose lists
+    # GPU atomics fill in any order, so two renders may differ by a few
+    # ulps (see the AOV test): one level of sRGB at most, on a few pixels.
+    levels = np.abs(a.rgba.astype(int) - m.rgba.astype(int))
+    assert levels.max() <= 1 and (levels > 0).any(axis=-1).mean() <= 0.005, f"{(levels > 0).sum()} channels differ"
+    np.testing.assert_allclose(a.depth, m.depth, rtol=1e-6)
+    np.testing.assert_array_equal(np.isinf(a.depth), np.isinf(m.depth))
+    # Any array-like of any float type: float32 positions (an MDAnalysis
+    # selection's) and lists.
+    assert isomarch.Scene.from_atoms(positions.astype(np.float32), np.float32(radii), None).primitive_count == 644
+    assert isomarch.Scene.from_atoms(positions.tolist(), radii).primitive_count == 644
+
+
+@pytest.mark.parametrize("source", ["scenes/fig10.ron", "tests/data/molecules/1A8O.pdb"])
+def test_depth_steps_and_normals_equal_the_exr_aovs(renderer, tmp_path, source):
+    exr = tmp_path / "aovs.exr"
+    cli("render", ROOT / source, "--size", "40x40", "-o", tmp_path / "m.png", "--aov", "depth,steps,normal", "--aov-output", exr)
+    scene = isomarch.Scene.from_molecule(ROOT / source) if source.endswith(".pdb") else isomarch.Scene.load(ROOT / source)
+    image = renderer.render(scene, size=(40, 40))
+    with OpenEXR.File(str(exr)) as f:
+        channels = f.channels()
+        exr_depth, exr_steps = np.asarray(channels["Z"].pixels), np.asarray(channels["steps"].pixels)
+        exr_normals = np.stack([np.asarray(channels[f"normal.{a}"].pixels) for a in "XYZ"], axis=-1)
+    if scene.primitive_count <= 64:
+        # Without the spatial index every run sums the same terms in the
+        # same order: equal to the bit.
+        np.testing.assert_array_equal(image.depth, exr_depth)
+        np.testing.assert_array_equal(image.steps.astype(np.float32), exr_steps)
+        np.testing.assert_array_equal(image.normals, exr_normals)
+    else:
+        # The index's cell lists are filled by GPU atomics, so two runs may
+        # sum a pixel's f32 terms in another order: a few ulps (measured:
+        # normals within 1.2e-7, depth and steps equal in every run).
+        np.testing.assert_allclose(image.depth, exr_depth, rtol=1e-6)
+        assert (image.steps.astype(np.float32) != exr_steps).mean() <= 0.01
+        np.testing.assert_allclose(image.normals, exr_normals, rtol=0, atol=1e-6)
+    hit = image.depth < np.inf
+    assert 100 < hit.sum() < 1600 and (image.steps[hit] > 0).all()
+    lengths = np.linalg.norm(image.normals[hit], axis=-1)
+    assert np.abs(lengths - 1).max() < 1e-4
+
+
+def test_bad_input_raises_the_clis_message(tmp_path):
+    bad = tmp_path / "bad.ron"
+    bad.write_text("Scene(camera: (eye: (0, 0, 5)))\n")
+    message = cli("render", bad, "-o", tmp_path / "x.png", check=False).stderr.strip()
+    assert message.startswith("error: ") and "\n" not in message, message
+    with pytest.raises(isomarch.IsomarchError) as e:
+        isomarch.Scene.load(bad)
+    assert str(e.value) == message[len("error: "):]
+    missing = tmp_path / "missing.pdb"
+    message = cli("render", missing, "-o", tmp_path / "x.png", check=False).stderr.strip()
+    with pytest.raises(isomarch.IsomarchError) as e:
+        isomarch.Scene.from_molecule(missing)
+    assert str(e.value) == message[len("error: "):]
+    with pytest.raises(isomarch.IsomarchError, match="3 positions but 2 radii"):
+        isomarch.Scene.from_atoms(np.zeros((3, 3)), [1.5, 1.5])
+    with pytest.raises(isomarch.IsomarchError, match="radius 1 must be positive"):
+        isomarch.Scene.from_atoms(np.zeros((2, 3)), [1.5, -1.0])
+    with pytest.raises(isomarch.IsomarchError, match="invalid method"):
+        isomarch.Renderer().render(isomarch.Scene.load(ROOT / "scenes/fig10.ron"), size=(8, 8), method="nope")
+
+
+def rss_kib():
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1])
+    raise AssertionError("no VmRSS in /proc/self/status")
+
+
+def test_a_renderer_renders_twenty_frames_without_leaking(renderer):
+    scene = isomarch.Scene.load(ROOT / "scenes/default.ron")
+    frames = []
+    for i in range(20):
+        image = renderer.render(scene, size=(64, 64), time=0.1 * i)
+        frames.append(image.rgba.sum())
+        if i == 4:
+            settled = rss_kib()
+    grown = rss_kib() - settled
+    # Each frame's arrays are about 100 KiB and are dropped; a leak of
+    # the frame's GPU readback or of a renderer per frame is megabytes.
+    assert grown < 8 * 1024, f"RSS grew by {grown} KiB over 15 frames"
