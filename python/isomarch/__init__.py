@@ -15,6 +15,7 @@ prints. The GPU works with the interpreter released.
 
 from __future__ import annotations
 
+import json
 import os
 from typing import Optional, Sequence, Tuple, Union
 
@@ -23,7 +24,7 @@ import numpy as np
 from . import _native
 from ._native import IsomarchError
 
-__all__ = ["Scene", "Renderer", "Image", "IsomarchError", "element_radius", "element_color"]
+__all__ = ["Scene", "Renderer", "Image", "IsomarchError", "element_radius", "element_color", "to_dataframe"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -208,5 +209,33 @@ class Renderer:
         raw = self._native.render(scene._native, int(width), int(height), method, float(time))
         return Image(raw, int(width), int(height))
 
+    def bench(
+        self,
+        scene: Scene,
+        methods: Optional[Sequence[str]] = None,
+        rays: int = 16384,
+        seed: int = 20230601,
+        repeat: int = 1,
+        camera: Optional[Tuple[int, int]] = None,
+    ) -> dict:
+        """``isomarch bench``: each method (default: the scene's) on the
+        same seeded rays of the benchmark protocol (or ``camera=(w, h)``: a
+        sample of that frame's pixel rays), against the f64 reference. The
+        report as ``bench --json`` writes it; its rows are
+        ``report["methods"]`` (:func:`to_dataframe` makes a pandas
+        DataFrame of them)."""
+        methods = [scene.method] if methods is None else [str(m) for m in methods]
+        return json.loads(self._native.bench(scene._native, methods, int(rays), int(seed), int(repeat), camera))
+
     def __repr__(self) -> str:
         return f"<isomarch.Renderer on {self.device}>"
+
+
+def to_dataframe(rows):
+    """A pandas DataFrame of report rows (``bench(...)["methods"]``); pandas
+    is needed for this function only."""
+    try:
+        import pandas
+    except ImportError as e:
+        raise ImportError("isomarch.to_dataframe needs pandas (pip install pandas); the rows are plain dicts without it") from e
+    return pandas.DataFrame(list(rows))

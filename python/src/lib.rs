@@ -237,6 +237,45 @@ impl NativeRenderer {
         out.set_item("stats", s)?;
         Ok(out)
     }
+
+    /// `isomarch bench`: the protocol's rays (or a sample of the camera's
+    /// pixel rays), every method against the f64 reference; the report as
+    /// the JSON `bench --json` writes.
+    #[allow(clippy::too_many_arguments)]
+    fn bench(
+        &self,
+        py: Python<'_>,
+        scene: &NativeScene,
+        methods: Vec<String>,
+        rays: usize,
+        seed: u64,
+        repeats: usize,
+        camera: Option<(u32, u32)>,
+    ) -> PyResult<String> {
+        let methods: Vec<Method> = methods
+            .iter()
+            .map(|m| m.parse::<Method>().map_err(|e| IsomarchError::new_err(format!("invalid method {m:?}: {e}"))))
+            .collect::<PyResult<_>>()?;
+        if methods.is_empty() {
+            return Err(IsomarchError::new_err("no method to benchmark"));
+        }
+        if rays == 0 {
+            return Err(IsomarchError::new_err("--rays must be at least 1"));
+        }
+        if repeats == 0 {
+            return Err(IsomarchError::new_err("--repeat must be at least 1"));
+        }
+        let posed = scene.scene.at_time(0.0);
+        let variants = [isomarch::bench::Variant { cull: true, quad: posed.marching.quad, generic: false }];
+        let (ctx, timeout) = (Arc::clone(&self.ctx), self.timeout);
+        let report = py
+            .detach(move || {
+                let plan = isomarch::bench::Plan { methods: &methods, variants: &variants, rays, seed, repeats, camera };
+                isomarch::bench::run(&ctx, &posed, &plan, timeout)
+            })
+            .map_err(raise)?;
+        serde_json::to_string(&report).map_err(raise)
+    }
 }
 
 #[pymodule]

@@ -5,6 +5,7 @@ package into a virtual environment and sets ISOMARCH_BIN to the command
 line built from the same tree.
 """
 
+import json
 import os
 import subprocess
 from pathlib import Path
@@ -167,3 +168,19 @@ def test_a_renderer_renders_twenty_frames_without_leaking(renderer):
     # Each frame's arrays are about 100 KiB and are dropped; a leak of
     # the frame's GPU readback or of a renderer per frame is megabytes.
     assert grown < 8 * 1024, f"RSS grew by {grown} KiB over 15 frames"
+
+
+def test_bench_rows_equal_the_clis(renderer, tmp_path):
+    path = tmp_path / "bench.json"
+    cli("bench", ROOT / "scenes/fig10.ron", "--methods", "segment,quadratic-taylor", "--rays", "1024", "--json", path)
+    expected = json.loads(path.read_text())
+    report = renderer.bench(isomarch.Scene.load(ROOT / "scenes/fig10.ron"), ["segment", "quadratic-taylor"], rays=1024)
+    assert [r["method"] for r in report["methods"]] == ["segment", "quadratic-taylor"]
+    assert report["reference_hit_rate"] == expected["reference_hit_rate"] > 0.2
+    for mine, theirs in zip(report["methods"], expected["methods"]):
+        for key, value in theirs.items():
+            # Times differ between runs; everything counted is equal.
+            if not any(word in key for word in ("ns_", "time", "gpu_ms")):
+                assert mine[key] == value, f"{mine['method']}: {key} {mine[key]} against the CLI's {value}"
+    with pytest.raises(isomarch.IsomarchError, match="invalid method"):
+        renderer.bench(isomarch.Scene.load(ROOT / "scenes/fig10.ron"), ["nope"])
