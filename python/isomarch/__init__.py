@@ -227,12 +227,31 @@ class Renderer:
         methods = [scene.method] if methods is None else [str(m) for m in methods]
         return json.loads(self._native.bench(scene._native, methods, int(rays), int(seed), int(repeat), camera))
 
+    def tradeoff(
+        self,
+        scene: Scene,
+        methods: Sequence[str] = ("segment", "quadratic-taylor"),
+        min_steps: Sequence[float] = (1e-4, 1e-3, 1e-2, 0.1, 1.0),
+        max_steps: Sequence[int] = (8, 32, 128, 1000, 10_000),
+        rays: int = 16384,
+        seed: int = 20230601,
+    ) -> list:
+        """``isomarch tradeoff``: each method at every minimum step and
+        step budget on the same rays, against the f64 reference: a list of
+        rows (the rows of ``tradeoff.csv``: time, steps, errors, miss and
+        false-hit rates, Pareto front)."""
+        return json.loads(
+            self._native.tradeoff(
+                scene._native, [str(m) for m in methods], [float(v) for v in min_steps], [int(v) for v in max_steps], int(rays), int(seed)
+            )
+        )
+
     def __repr__(self) -> str:
         return f"<isomarch.Renderer on {self.device}>"
 
 
 def to_dataframe(rows):
-    """A pandas DataFrame of report rows (``bench(...)["methods"]``); pandas
+    """A pandas DataFrame of rows (``bench(...)["methods"]``, ``tradeoff(...)``); pandas
     is needed for this function only."""
     try:
         import pandas

@@ -21,6 +21,9 @@ class NativeRenderer:
     def bench(
         self, scene: NativeScene, methods: list, rays: int, seed: int, repeats: int, camera: Optional[Tuple[int, int]]
     ) -> str: ...
+    def tradeoff(
+        self, scene: NativeScene, methods: list, min_steps: list, max_steps: list, rays: int, seed: int
+    ) -> str: ...
 
 def scene_load(path: str) -> NativeScene: ...
 def scene_from_molecule(

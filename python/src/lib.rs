@@ -157,6 +157,14 @@ fn png_bytes<'py>(py: Python<'py>, rgba: PyReadonlyArray1<'_, u8>, width: u32, h
     Ok(PyBytes::new(py, &bytes))
 }
 
+/// Marchers by name; at least one.
+fn parse_methods(names: &[String]) -> PyResult<Vec<Method>> {
+    if names.is_empty() {
+        return Err(IsomarchError::new_err("no method given"));
+    }
+    names.iter().map(|m| m.parse::<Method>().map_err(|e| IsomarchError::new_err(format!("invalid method {m:?}: {e}")))).collect()
+}
+
 /// A Vulkan context kept between renders.
 #[pyclass(module = "isomarch._native")]
 struct NativeRenderer {
@@ -252,13 +260,7 @@ impl NativeRenderer {
         repeats: usize,
         camera: Option<(u32, u32)>,
     ) -> PyResult<String> {
-        let methods: Vec<Method> = methods
-            .iter()
-            .map(|m| m.parse::<Method>().map_err(|e| IsomarchError::new_err(format!("invalid method {m:?}: {e}"))))
-            .collect::<PyResult<_>>()?;
-        if methods.is_empty() {
-            return Err(IsomarchError::new_err("no method to benchmark"));
-        }
+        let methods = parse_methods(&methods)?;
         if rays == 0 {
             return Err(IsomarchError::new_err("--rays must be at least 1"));
         }
@@ -275,6 +277,36 @@ impl NativeRenderer {
             })
             .map_err(raise)?;
         serde_json::to_string(&report).map_err(raise)
+    }
+
+    /// `isomarch tradeoff`: every method at every minimum step and step
+    /// budget on the same rays; the points (rows of tradeoff.csv) as JSON.
+    #[allow(clippy::too_many_arguments)]
+    fn tradeoff(
+        &self,
+        py: Python<'_>,
+        scene: &NativeScene,
+        methods: Vec<String>,
+        min_steps: Vec<f64>,
+        max_steps: Vec<u32>,
+        rays: usize,
+        seed: u64,
+    ) -> PyResult<String> {
+        let methods = parse_methods(&methods)?;
+        if let Some(bad) = min_steps.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+            return Err(IsomarchError::new_err(format!("--min-steps must be positive, got {bad}")));
+        }
+        if min_steps.is_empty() || max_steps.is_empty() || max_steps.contains(&0) {
+            return Err(IsomarchError::new_err("--min-steps and --max-steps-list need at least one value each, budgets at least 1"));
+        }
+        if rays == 0 {
+            return Err(IsomarchError::new_err("--rays must be at least 1"));
+        }
+        let sweep = isomarch::tradeoff::Sweep { methods, min_steps, max_steps, rays, seed };
+        let posed = scene.scene.at_time(0.0);
+        let (ctx, timeout) = (Arc::clone(&self.ctx), self.timeout);
+        let points = py.detach(move || isomarch::tradeoff::run(&ctx, &posed, &sweep, timeout, |_| {})).map_err(raise)?;
+        serde_json::to_string(&points).map_err(raise)
     }
 }
 

@@ -184,3 +184,19 @@ def test_bench_rows_equal_the_clis(renderer, tmp_path):
                 assert mine[key] == value, f"{mine['method']}: {key} {mine[key]} against the CLI's {value}"
     with pytest.raises(isomarch.IsomarchError, match="invalid method"):
         renderer.bench(isomarch.Scene.load(ROOT / "scenes/fig10.ron"), ["nope"])
+
+
+def test_tradeoff_rows_equal_the_clis_csv(renderer, tmp_path):
+    cli("tradeoff", ROOT / "scenes/fig10.ron", "--quick", "-o", tmp_path)
+    lines = (tmp_path / "tradeoff.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    expected = [dict(zip(header, line.split(","))) for line in lines[1:]]
+    rows = renderer.tradeoff(isomarch.Scene.load(ROOT / "scenes/fig10.ron"), min_steps=[0.01, 0.1], max_steps=[32, 1000], rays=1024)
+    assert len(rows) == len(expected) == 8
+    for mine, theirs in zip(rows, expected):
+        assert (mine["method"], mine["min_step"], mine["max_steps"]) == (theirs["method"], float(theirs["min_step"]), int(theirs["max_steps"]))
+        # Within the CSV's rounding: 4 decimals of steps, 2 of evaluations, 6 of rates.
+        for key, half in (("steps_per_ray", 5e-5), ("evals_per_ray", 5e-3), ("miss_rate", 5e-7), ("false_hit_rate", 5e-7)):
+            assert abs(mine[key] - float(theirs[key])) <= half, (key, mine, theirs)
+        if mine["max_steps"] == 1000:
+            assert mine["miss_rate"] == 0 and mine["false_hit_rate"] == 0, mine
