@@ -316,3 +316,68 @@ fn a_molecules_camera_rays_match_the_reference_for_every_conservative_method() {
         }
     }
 }
+
+/// `isomarch scene FILE`: the summary line it prints ("F: N atoms, M
+/// chains") and the scene it wrote.
+fn scene_summary(file: &Path) -> (String, Scene) {
+    let ron = file.with_extension("ron");
+    let out = run(&["scene", file.to_str().unwrap(), "-o", ron.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{}: {stderr}", file.display());
+    let summary = stderr.lines().find(|l| l.contains(" atoms")).unwrap_or_else(|| panic!("no summary in {stderr:?}")).to_string();
+    (summary, Scene::load(&ron).unwrap())
+}
+
+/// Reader cases through the binary (issue 28): alternate locations chosen
+/// per atom site in PDB and mmCIF (a site given only as B and C keeps B);
+/// an mmCIF whose `_atom_site` is key-value pairs (one atom) and a second
+/// data block after the first; GRO residue numbers that wrap at 99,999
+/// (one chain, not two) with velocities on every line; PDB hydrogens named
+/// `1HB` and deuterium `D` left out like hydrogens.
+#[test]
+fn readers_choose_alternate_locations_per_site_and_read_one_atom_cifs_and_wrapped_gro_residues() {
+    let dir = scratch("mol-readers");
+    // PDB: site N of residue 1 has A and B; site CA has only B and C; CB blank.
+    let atom = |name: &str, alt: char, x: f64, element: &str| {
+        format!("ATOM      1 {name:<4}{alt}ALA A   1    {x:8.3}{:8.3}{:8.3}  1.00  0.00          {element:>2}\n", 0.0, 0.0)
+    };
+    let pdb = [
+        atom(" N", 'A', 0.0, "N"),
+        atom(" N", 'B', 0.3, "N"),
+        atom(" CA", 'B', 1.5, "C"),
+        atom(" CA", 'C', 1.8, "C"),
+        atom(" CB", ' ', 3.0, "C"),
+        atom("1HB", ' ', 3.5, ""),
+        atom(" D1", ' ', 4.0, "D"),
+    ]
+    .concat();
+    let (summary, scene) = scene_summary(&write(&dir, "alt.pdb", pdb.as_bytes()));
+    assert_eq!(scene.primitive_count(), 3, "N (A), CA (B) and CB: {summary}");
+    let xs: Vec<f64> =
+        scene.primitives().map(|p| if let isomarch::scene::Primitive::Point { center, .. } = p { center.x } else { f64::NAN }).collect();
+    assert_eq!(xs, [0.0, 1.5, 3.0], "the first conformer of each site");
+    assert!(summary.contains("3 atoms (2 hydrogens left out)"), "{summary}");
+
+    // mmCIF: the same sites in a loop, then a second data block.
+    let cif = "data_ALT\nloop_\n_atom_site.group_PDB\n_atom_site.type_symbol\n_atom_site.label_atom_id\n_atom_site.label_alt_id\n\
+               _atom_site.label_seq_id\n_atom_site.Cartn_x\n_atom_site.Cartn_y\n_atom_site.Cartn_z\n_atom_site.auth_asym_id\n\
+               ATOM N N A 1 0.0 0 0 A\nATOM N N B 1 0.3 0 0 A\nATOM C CA B 1 1.5 0 0 A\nATOM C CA C 1 1.8 0 0 A\nATOM C CB . 1 3.0 0 0 A\n\
+               #\ndata_SECOND\nloop_\n_atom_site.type_symbol\n_atom_site.Cartn_x\n_atom_site.Cartn_y\n_atom_site.Cartn_z\nO 9 9 9\n";
+    let (summary, scene) = scene_summary(&write(&dir, "alt.cif", cif.as_bytes()));
+    assert_eq!(scene.primitive_count(), 3, "{summary}");
+
+    // mmCIF of one atom, written as key-value pairs, a quoted name with a prime.
+    let one = "data_ONE\n_atom_site.group_PDB HETATM\n_atom_site.type_symbol ZN\n_atom_site.label_atom_id \"ZN'\"\n\
+               _atom_site.Cartn_x 1.25\n_atom_site.Cartn_y -2.5\n_atom_site.Cartn_z 3.75\n_atom_site.auth_asym_id B\n#\n";
+    let (summary, scene) = scene_summary(&write(&dir, "one.cif", one.as_bytes()));
+    assert_eq!(scene.primitive_count(), 1, "{summary}");
+    let center = scene.primitives().find_map(|p| if let isomarch::scene::Primitive::Point { center, .. } = p { Some(*center) } else { None });
+    assert_eq!(center, Some(glam::DVec3::new(1.25, -2.5, 3.75)));
+
+    // GRO: residue 99999 then 0 (a wrap: one chain), velocities on each line.
+    let water = |residue: u32, i: u32, x: f64| format!("{residue:>5}SOL     OW{i:>5}{x:8.3}   1.624   1.679  0.1227 -0.0580  0.0434\n");
+    let gro = format!("wrap\n    3\n{}{}{}   1.86206   1.86206   1.86206\n", water(99_999, 1, 0.126), water(0, 2, 0.426), water(1, 3, 0.726));
+    let (summary, scene) = scene_summary(&write(&dir, "wrap.gro", gro.as_bytes()));
+    assert_eq!(scene.primitive_count(), 3, "{summary}");
+    assert!(summary.ends_with("3 atoms, 1 chain"), "{summary}");
+}

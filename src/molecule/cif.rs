@@ -97,6 +97,22 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
                 break;
             }
         }
+        // `_atom_site.x value` pairs outside a loop: a table of one row
+        // (a file of one atom).
+        if !t.quoted && t.s.to_ascii_lowercase().starts_with("_atom_site.") {
+            let line = t.line;
+            let (mut tags, mut values) = (Vec::new(), Vec::new());
+            while i + 1 < toks.len() && !toks[i].quoted && toks[i].s.to_ascii_lowercase().starts_with("_atom_site.") && !is_keyword(&toks[i + 1]) {
+                tags.push(toks[i].s.to_ascii_lowercase());
+                values.push(Tok { ..toks[i + 1] });
+                i += 2;
+            }
+            if i < toks.len() && !toks[i].quoted && toks[i].s.to_ascii_lowercase().starts_with("_atom_site.") {
+                return Err(err(toks[i].line, format!("{} has no value", toks[i].s)));
+            }
+            extra_models += read_rows(&tags, &values, line, file, &mut atoms)?;
+            continue;
+        }
         if t.quoted || !t.s.eq_ignore_ascii_case("loop_") {
             i += 1;
             continue;
@@ -129,41 +145,59 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
                 },
             ));
         }
-        let col = |name: &str| tags.iter().position(|t| t == &format!("_atom_site.{name}"));
-        let need = |name: &str| col(name).ok_or_else(|| err(loop_line, format!("the _atom_site loop has no {name} column")));
-        let (cx, cy, cz) = (need("cartn_x")?, need("cartn_y")?, need("cartn_z")?);
-        let symbol = need("type_symbol")?;
-        let alt_col = col("label_alt_id");
-        let chain_col = col("auth_asym_id").or(col("label_asym_id"));
-        let model_col = col("pdbx_pdb_model_num");
-        let mut first_model: Option<&str> = None;
-        let mut models: Vec<&str> = Vec::new();
-        let mut alt: Option<&str> = None;
-        for row in values.chunks(width) {
-            let line = row[0].line;
-            if let Some(m) = model_col.map(|c| row[c].s) {
-                if !models.contains(&m) {
-                    models.push(m);
-                }
-                if *first_model.get_or_insert(m) != m {
-                    continue;
-                }
-            }
-            if let Some(a) = alt_col.map(|c| row[c].s).filter(|a| !missing(a))
-                && *alt.get_or_insert(a) != a
-            {
-                continue;
-            }
-            let x = number(row[cx].s, "Cartn_x", file, row[cx].line)?;
-            let y = number(row[cy].s, "Cartn_y", file, row[cy].line)?;
-            let z = number(row[cz].s, "Cartn_z", file, row[cz].line)?;
-            let element = if missing(row[symbol].s) { String::new() } else { element_case(row[symbol].s) };
-            let chain = chain_col.map(|c| row[c].s).filter(|c| !missing(c)).unwrap_or("").to_string();
-            atoms.push(Atom { element, position: DVec3::new(x, y, z), chain, line });
-        }
-        extra_models += models.len().saturating_sub(1);
+        extra_models += read_rows(&tags, values, loop_line, file, &mut atoms)?;
     }
     Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models })
+}
+
+/// The atoms of an `_atom_site` table (`tags`, and `values` row after
+/// row), first model only, appended to `atoms`; returns the count of
+/// models left out. Alternate locations are chosen per atom site: the
+/// first conformer given of each site is kept, so that a site whose only
+/// conformers are B and C is kept too.
+fn read_rows(tags: &[String], values: &[Tok], table_line: usize, file: &str, atoms: &mut Vec<Atom>) -> Result<usize, MoleculeError> {
+    let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(line), message };
+    let width = tags.len();
+    let col = |name: &str| tags.iter().position(|t| t == &format!("_atom_site.{name}"));
+    let need = |name: &str| col(name).ok_or_else(|| err(table_line, format!("the _atom_site table has no {name} column")));
+    let (cx, cy, cz) = (need("cartn_x")?, need("cartn_y")?, need("cartn_z")?);
+    let symbol = need("type_symbol")?;
+    let alt_col = col("label_alt_id");
+    let chain_col = col("auth_asym_id").or(col("label_asym_id"));
+    let model_col = col("pdbx_pdb_model_num");
+    // What names a site, of the columns the file has.
+    let site_cols: Vec<usize> =
+        ["label_atom_id", "auth_atom_id", "label_comp_id", "label_asym_id", "auth_asym_id", "label_seq_id", "auth_seq_id", "pdbx_pdb_ins_code"]
+            .iter()
+            .filter_map(|n| col(n))
+            .collect();
+    let mut first_model: Option<&str> = None;
+    let mut models: Vec<&str> = Vec::new();
+    let mut alt_of_site: std::collections::HashMap<Vec<&str>, &str> = std::collections::HashMap::new();
+    for row in values.chunks(width) {
+        let line = row[0].line;
+        if let Some(m) = model_col.map(|c| row[c].s) {
+            if !models.contains(&m) {
+                models.push(m);
+            }
+            if *first_model.get_or_insert(m) != m {
+                continue;
+            }
+        }
+        if let Some(a) = alt_col.map(|c| row[c].s).filter(|a| !missing(a)) {
+            let site: Vec<&str> = site_cols.iter().map(|&c| row[c].s).collect();
+            if *alt_of_site.entry(site).or_insert(a) != a {
+                continue;
+            }
+        }
+        let x = number(row[cx].s, "Cartn_x", file, row[cx].line)?;
+        let y = number(row[cy].s, "Cartn_y", file, row[cy].line)?;
+        let z = number(row[cz].s, "Cartn_z", file, row[cz].line)?;
+        let element = if missing(row[symbol].s) { String::new() } else { element_case(row[symbol].s) };
+        let chain = chain_col.map(|c| row[c].s).filter(|c| !missing(c)).unwrap_or("").to_string();
+        atoms.push(Atom { element, position: DVec3::new(x, y, z), chain, line });
+    }
+    Ok(models.len().saturating_sub(1))
 }
 
 #[cfg(test)]

@@ -88,8 +88,11 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
             ));
         }
         let residue_number: Option<i64> = line[0..5].trim().parse().ok();
+        // Residue numbers going down start a chain, except where they wrap:
+        // GROMACS writes them modulo 100,000, so 99999 is followed by 0.
         if let (Some(r), Some(last)) = (residue_number, last_residue)
             && r < last
+            && !(last == 99_999 && r <= 1)
         {
             chain += 1;
         }

@@ -125,8 +125,9 @@ fn text_of(bytes: Vec<u8>, file: &str) -> Result<String, MoleculeError> {
 }
 
 /// Reads the atoms of a PDB, mmCIF or GRO file (by extension), gzipped or
-/// not. Only the first model is read; alternate locations keep the first
-/// given (blank or `A`). An error is one line; a file without atoms is one.
+/// not. Only the first model is read; of each atom site's alternate
+/// locations, the first given is kept. An error is one line; a file
+/// without atoms is one.
 pub fn read(path: &Path) -> Result<Molecule, MoleculeError> {
     let file = path.display().to_string();
     let Some(format) = format_of(path) else {

@@ -7,7 +7,8 @@
 //!
 //! An empty element column falls back on the atom name, right-justified in
 //! columns 13-14 by the same convention: ` CA ` is an alpha carbon, `CA  `
-//! calcium. Every other record is ignored.
+//! calcium. Every other record is ignored. Of an atom site's alternate
+//! locations, the first given is kept.
 
 use glam::DVec3;
 
@@ -47,7 +48,7 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
     let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(line), message };
     let mut atoms = Vec::new();
     let mut models = 0usize;
-    let mut alt: Option<char> = None;
+    let mut alt_of_site: std::collections::HashMap<(String, String), char> = std::collections::HashMap::new();
     let cut_short = !text.is_empty() && !text.ends_with('\n');
     let count = text.lines().count();
     for (i, line) in text.lines().enumerate() {
@@ -73,12 +74,14 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
                 },
             ));
         }
+        // Alternate locations per atom site (name, residue, chain, number,
+        // insertion code: columns 13-16 and 18-27): the first conformer
+        // given of each site is kept, so a site given only as B and C stays.
         let altloc = line.as_bytes()[16] as char;
         if altloc != ' ' {
-            match alt {
-                None => alt = Some(altloc),
-                Some(a) if a != altloc => continue,
-                _ => {}
+            let site = (line[12..16].to_string(), line[17..27].to_string());
+            if *alt_of_site.entry(site).or_insert(altloc) != altloc {
+                continue;
             }
         }
         let x = number(&line[30..38], "x coordinate (columns 31-38)", file, n)?;
