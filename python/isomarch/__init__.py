@@ -54,8 +54,11 @@ class Scene:
 
     @staticmethod
     def load(path: PathLike) -> "Scene":
-        """Reads, parses and validates a scene file (.ron)."""
-        return Scene(_native.scene_load(os.fspath(path)))
+        """Reads, parses and validates a scene file (.ron); a molecule file
+        (.pdb, .cif, .gro, optionally .gz) is read with the default molecule
+        options, as ``isomarch render FILE`` reads either."""
+        native, warnings, summary = _native.scene_load(os.fspath(path))
+        return Scene(native, warnings, summary)
 
     @staticmethod
     def from_molecule(

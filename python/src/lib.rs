@@ -75,10 +75,16 @@ fn molecule_options(
     Ok(o)
 }
 
+/// A scene file, or a molecule file with the default molecule options (as
+/// `isomarch render FILE` reads either).
 #[pyfunction]
-fn scene_load(py: Python<'_>, path: PathBuf) -> PyResult<NativeScene> {
+fn scene_load(py: Python<'_>, path: PathBuf) -> PyResult<(NativeScene, Vec<String>, String)> {
+    if isomarch::molecule::is_molecule(&path) {
+        let (scene, notes) = py.detach(|| load_scene(&path, &MoleculeOptions::default())).map_err(raise)?;
+        return Ok((NativeScene { scene }, notes.warnings, notes.summary));
+    }
     let scene = py.detach(|| isomarch::scene::Scene::load(&path)).map_err(raise)?;
-    Ok(NativeScene { scene })
+    Ok((NativeScene { scene }, Vec::new(), String::new()))
 }
 
 #[pyfunction]

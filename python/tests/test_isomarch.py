@@ -82,6 +82,8 @@ def test_from_atoms_with_a_pdbs_coordinates_is_from_molecule_on_that_pdb(rendere
     colors = [isomarch.element_color(e) for e in elements]
     atoms = isomarch.Scene.from_atoms(positions, radii, colors)
     molecule = isomarch.Scene.from_molecule(PDB)
+    assert isomarch.Scene.load(PDB).primitive_count == molecule.primitive_count
+    assert molecule.summary.endswith("644 atoms, 1 chain"), molecule.summary
     assert atoms.primitive_count == molecule.primitive_count == len(elements) == 644
     a = renderer.render(atoms, size=(48, 48))
     m = renderer.render(molecule, size=(48, 48))
