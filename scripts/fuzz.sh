@@ -38,7 +38,7 @@ for t in "${targets[@]}"; do
     status=$?
     set -e
     ran=$(($(date +%s) - start))
-    execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -n 1)
+    execs=$(grep -a -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -n 1 || true)
     crashes=0
     for a in "fuzz/artifacts/$t"/crash-* "fuzz/artifacts/$t"/oom-* "fuzz/artifacts/$t"/timeout-* "fuzz/artifacts/$t"/leak-*; do
         [ -e "$a" ] || continue
