@@ -275,6 +275,17 @@ pub struct Plan<'a> {
     pub camera: Option<(u32, u32)>,
 }
 
+impl Plan<'_> {
+    /// One-line errors for a plan that cannot run, named by the command
+    /// line's flags (the Python package's `bench` checks the same).
+    pub fn check(&self) -> Result<()> {
+        anyhow::ensure!(!self.methods.is_empty(), "--methods names no marcher");
+        anyhow::ensure!(self.rays >= 1, "--rays must be at least 1");
+        anyhow::ensure!(self.repeats >= 1, "--repeat must be at least 1");
+        Ok(())
+    }
+}
+
 /// Runs every method on the same protocol rays and compares them. Each
 /// method runs in each of `variants` that changes it (the first is the
 /// default; rows of the others are marked, e.g. "no cull"). Counts and

@@ -846,21 +846,16 @@ fn tradeoff(args: TradeoffArgs) -> Result<()> {
     let methods = parse_methods(methods.as_deref().unwrap_or(default))?;
     let mut sweep = if quick { isomarch::tradeoff::Sweep::quick(methods) } else { isomarch::tradeoff::Sweep::full(methods) };
     if !min_steps.is_empty() {
-        if let Some(bad) = min_steps.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
-            bail!("--min-steps must be positive, got {bad}");
-        }
         sweep.min_steps = min_steps;
     }
     if !max_steps.is_empty() {
-        if max_steps.contains(&0) {
-            bail!("--max-steps-list must be at least 1");
-        }
         sweep.max_steps = max_steps;
     }
     if let Some(n) = rays {
-        sweep.rays = check_rays(n)?;
+        sweep.rays = n;
     }
     sweep.seed = seed;
+    sweep.check()?;
     let gpu = gpu.open()?;
     let total = sweep.methods.len() * sweep.min_steps.len() * sweep.max_steps.len();
     let bar = indicatif::ProgressBar::new(total as u64);
@@ -972,13 +967,11 @@ fn bench(args: BenchArgs) -> Result<()> {
     }
     // An animated scene is measured as posed at time 0.
     let scene = args.march.load(&args.scene, &args.molecule)?.at_time(0.0);
-    let gpu = args.gpu.open()?;
     let variants = args.variants.variants(&scene);
-    if args.repeat == 0 {
-        bail!("--repeat must be at least 1");
-    }
     let camera = args.camera.map(|(w, h)| if w == 0 { (scene.camera.width, scene.camera.height) } else { (w, h) });
     let plan = bench::Plan { methods: &methods, variants: &variants, rays, seed: args.seed, repeats: args.repeat, camera };
+    plan.check()?;
+    let gpu = args.gpu.open()?;
     let report = bench::run(&gpu.ctx, &scene, &plan, gpu.timeout)?;
     print!("{}", bench::markdown(&report));
     if let Some(path) = args.json {

@@ -34,6 +34,30 @@ impl Sweep {
         Sweep { methods, min_steps: vec![1e-4, 1e-3, 1e-2, 0.1, 1.0], max_steps: vec![8, 32, 128, 1000, 10_000], rays: 16_384, seed: 20230601 }
     }
 
+    /// One-line errors for a sweep that cannot run, named by the command
+    /// line's flags (the Python package's `tradeoff` checks the same).
+    pub fn check(&self) -> Result<()> {
+        if self.methods.is_empty() {
+            bail!("--methods names no marcher");
+        }
+        if self.min_steps.is_empty() {
+            bail!("--min-steps needs at least one value");
+        }
+        if let Some(bad) = self.min_steps.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+            bail!("--min-steps must be positive, got {bad}");
+        }
+        if self.max_steps.is_empty() {
+            bail!("--max-steps-list needs at least one value");
+        }
+        if self.max_steps.contains(&0) {
+            bail!("--max-steps-list must be at least 1");
+        }
+        if self.rays == 0 {
+            bail!("--rays must be at least 1");
+        }
+        Ok(())
+    }
+
     /// A few settings on few rays, for CI.
     pub fn quick(methods: Vec<Method>) -> Sweep {
         Sweep { methods, min_steps: vec![0.01, 0.1], max_steps: vec![32, 1000], rays: 1024, seed: 20230601 }

@@ -267,14 +267,9 @@ impl NativeRenderer {
         camera: Option<(u32, u32)>,
     ) -> PyResult<String> {
         let methods = parse_methods(&methods)?;
-        if rays == 0 {
-            return Err(IsomarchError::new_err("--rays must be at least 1"));
-        }
-        if repeats == 0 {
-            return Err(IsomarchError::new_err("--repeat must be at least 1"));
-        }
         let posed = scene.scene.at_time(0.0);
         let variants = [isomarch::bench::Variant { cull: true, quad: posed.marching.quad, generic: false }];
+        isomarch::bench::Plan { methods: &methods, variants: &variants, rays, seed, repeats, camera }.check().map_err(raise)?;
         let (ctx, timeout) = (Arc::clone(&self.ctx), self.timeout);
         let report = py
             .detach(move || {
@@ -298,17 +293,8 @@ impl NativeRenderer {
         rays: usize,
         seed: u64,
     ) -> PyResult<String> {
-        let methods = parse_methods(&methods)?;
-        if let Some(bad) = min_steps.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
-            return Err(IsomarchError::new_err(format!("--min-steps must be positive, got {bad}")));
-        }
-        if min_steps.is_empty() || max_steps.is_empty() || max_steps.contains(&0) {
-            return Err(IsomarchError::new_err("--min-steps and --max-steps-list need at least one value each, budgets at least 1"));
-        }
-        if rays == 0 {
-            return Err(IsomarchError::new_err("--rays must be at least 1"));
-        }
-        let sweep = isomarch::tradeoff::Sweep { methods, min_steps, max_steps, rays, seed };
+        let sweep = isomarch::tradeoff::Sweep { methods: parse_methods(&methods)?, min_steps, max_steps, rays, seed };
+        sweep.check().map_err(raise)?;
         let posed = scene.scene.at_time(0.0);
         let (ctx, timeout) = (Arc::clone(&self.ctx), self.timeout);
         let points = py.detach(move || isomarch::tradeoff::run(&ctx, &posed, &sweep, timeout, |_| {})).map_err(raise)?;
