@@ -197,11 +197,14 @@ pub struct BatchSummary {
 /// done, frames per second, time left). Per-frame statistics are appended to
 /// `csv` as each frame lands. With `skip_existing`, frames already on disk
 /// are kept. `stop` is checked between frames: a requested stop ends the
-/// batch after the frame in flight is written.
+/// batch after the frame in flight is written. With a `trajectory`, frame
+/// n is the trajectory's frame n (posed at scene time n / fps, for a
+/// turntable camera), decoded ahead on another thread.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     ctx: &std::sync::Arc<crate::gpu::Context>,
     job: &crate::render::offscreen::RenderJob,
+    trajectory: Option<crate::molecule::playback::Stager>,
     pattern: &str,
     range: FrameRange,
     fps: f64,
@@ -252,6 +255,13 @@ pub fn run(
     let mut renderer = Renderer::new(ctx, &still)?;
     renderer.timeout = job.timeout;
     let animated = !job.scene.animation.is_static();
+    let mut frames = match trajectory {
+        Some(stager) => {
+            let order = crate::molecule::playback::Order::List(todo.iter().map(|(f, _)| *f as usize).collect());
+            Some(crate::molecule::playback::Prefetch::spawn(stager, order, 2)?)
+        }
+        None => None,
+    };
     let (mut rays, mut pixels) = camera_rays(&still.camera, job.width, job.height, &still.bounds);
     // Posing moves primitives and the camera, not the marching settings.
     let options = MarchOptions::for_scene(&still);
@@ -265,7 +275,14 @@ pub fn run(
             break;
         }
         let started = std::time::Instant::now();
-        if animated {
+        if let Some(prefetch) = frames.as_mut() {
+            let staged = prefetch.wait().ok_or_else(|| anyhow::anyhow!("the trajectory's decoder stopped before frame {frame}"))??;
+            anyhow::ensure!(staged.frame as u64 == frame, "the decoder gave frame {} for frame {frame}", staged.frame);
+            let posed = staged.scene.at_time(frame as f64 / fps).recentred_on_camera();
+            renderer.set_scene(&posed)?;
+            index_built = true;
+            (rays, pixels) = camera_rays(&posed.camera, job.width, job.height, &posed.bounds);
+        } else if animated {
             // The scene at this frame's time: primitives, camera, bounds.
             let posed = job.scene.at_time(frame as f64 / fps).recentred_on_camera();
             renderer.set_scene(&posed)?;

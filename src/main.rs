@@ -18,6 +18,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use isomarch::bench;
 use isomarch::gpu::{Context, ContextOptions, GpuError, list_devices};
 use isomarch::method::{Method, parse_list};
+use isomarch::molecule::playback::{FramingRule, Stager};
 use isomarch::output::{self, Aov, FileFormat, png_bytes, write_atomic};
 use isomarch::render::offscreen::{RenderJob, render_frame, render_to_files};
 use isomarch::scene::Scene;
@@ -42,12 +43,15 @@ struct Cli {
 enum Command {
     /// Render a scene offscreen to PNG, with optional heatmap, AOVs and statistics.
     Render(RenderArgs),
-    /// Open a window that plays the scene's animation in scene time.
+    /// Open a window that plays the scene's animation in scene time, or a
+    /// molecule's trajectory (`view TOPOLOGY TRAJECTORY`, frame n at n/fps s,
+    /// looping).
     ///
     /// Controls: drag to orbit, wheel to zoom, Space pause/play, Left/Right
-    /// step one frame (1/fps s), M next marcher, H step heatmap, T
-    /// transparency on/off, S save a screenshot, Esc quit. The title shows
-    /// frame time, FPS, marcher and mean steps per ray. While the view moves,
+    /// step one frame (1/fps s), + and - double and halve the speed, M next
+    /// marcher, H step heatmap, T transparency on/off, S save a screenshot,
+    /// Esc quit. The title shows frame time, FPS, marcher, mean steps per
+    /// ray, and a trajectory's frame and simulation time. While the view moves,
     /// frames are marched at a lower resolution that fits --preview-ms; at
     /// rest the full-resolution frame is marched in tiles over the preview.
     View(ViewArgs),
@@ -78,6 +82,26 @@ enum Command {
     /// checking that every frame of --frames is listed exactly once (none
     /// missing, none twice, none outside).
     MergeStats(MergeStatsArgs),
+    /// Read every frame of a trajectory (or a file of several models) and
+    /// print, per frame, its simulation time and the mean position of its
+    /// atoms, as CSV; --atoms adds the positions of atoms by their index in
+    /// the file (from 0). Checks a trajectory before a long batch, and
+    /// compares with other readers (MDAnalysis, VMD).
+    Frames(FramesArgs),
+}
+
+/// `isomarch frames`.
+#[derive(Args)]
+struct FramesArgs {
+    /// Topology: a molecule file (.pdb, .cif, .gro, optionally .gz) or .psf.
+    topology: PathBuf,
+    /// Its trajectory (.xtc, .dcd, multi-model .pdb or .cif, multi-frame .gro);
+    /// default: the topology's own models or frames.
+    trajectory: Option<PathBuf>,
+    /// Atoms whose positions to print, by index in the file (0-based,
+    /// counting every coordinate site: virtual sites and hydrogens too).
+    #[arg(long, value_delimiter = ',', value_name = "I,J,...")]
+    atoms: Vec<usize>,
 }
 
 /// `isomarch merge-stats`.
@@ -204,11 +228,87 @@ impl MoleculeArgs {
     }
 }
 
+/// The flags of a trajectory (or a file of several models).
+#[derive(Args)]
+struct PlayArgs {
+    /// The frame to render, benchmark or write, of a trajectory or a
+    /// multi-model file [default: 0].
+    #[arg(long, value_name = "N")]
+    frame: Option<usize>,
+    /// Where a trajectory's camera looks, for every frame: at the first
+    /// frame's atoms, or at every frame's (one pass over the trajectory first).
+    #[arg(long, value_enum, default_value_t)]
+    framing: FramingRule,
+}
+
+/// What a command was given to render: one scene, or the frames of a
+/// trajectory.
+#[allow(clippy::large_enum_variant)] // one per command
+enum Input {
+    Still(Scene),
+    Frames(Stager),
+}
+
+impl Input {
+    /// Opens `path` (a scene file, a molecule file, or a topology) with
+    /// `trajectory`: frames where there is a trajectory or the molecule
+    /// file holds more than one model or frame, else one scene.
+    fn open(path: &Path, trajectory: Option<&Path>, molecule: &MoleculeArgs, march: &MarchArgs, play: &PlayArgs) -> Result<Input> {
+        let psf = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("psf"));
+        let multi = match trajectory {
+            Some(_) => true,
+            // Refused by the trajectory reader, with why.
+            None if psf => true,
+            None if isomarch::molecule::is_molecule(path) => isomarch::molecule::read(path)?.extra_models > 0,
+            None => false,
+        };
+        if !multi {
+            if let Some(k) = play.frame.filter(|&k| k > 0) {
+                bail!("--frame {k}: {} holds one frame (frame 0)", path.display());
+            }
+            if play.framing != FramingRule::First {
+                bail!("--framing applies to trajectories and files of several models; {} holds one", path.display());
+            }
+            return Ok(Input::Still(march.load(path, molecule)?));
+        }
+        let t = isomarch::molecule::trajectory::open(path, trajectory)?;
+        let frames = t.len();
+        let overrides = march.clone();
+        let mut stager = Stager::new(t, molecule.options(), play.framing)?.with_adjust(Box::new(move |s| overrides.apply(s)));
+        let (_, time, notes) = stager.text(0)?;
+        for w in &notes.warnings {
+            eprintln!("warning: {w}");
+        }
+        eprintln!("{}", notes.summary);
+        eprintln!(
+            "{}: {frames} frame{}{}",
+            stager.trajectory.source,
+            if frames == 1 { "" } else { "s" },
+            time.map_or(String::new(), |t| format!(", the first at {t} ps"))
+        );
+        Ok(Input::Frames(stager))
+    }
+
+    /// The scene of frame `frame` (0 where not given).
+    fn scene(&mut self, frame: Option<usize>) -> Result<Scene> {
+        match self {
+            Input::Still(scene) => Ok(scene.clone()),
+            Input::Frames(stager) => Ok(stager.scene(frame.unwrap_or(0))?.0),
+        }
+    }
+}
+
 /// `isomarch scene`.
 #[derive(Args)]
 struct SceneArgs {
-    /// Molecule file (.pdb, .ent, .cif, .mmcif, .gro; optionally .gz).
+    /// Molecule file (.pdb, .ent, .cif, .mmcif, .gro; optionally .gz), or
+    /// a trajectory's topology (those, or .psf).
     molecule: PathBuf,
+    /// Trajectory of the topology (.xtc, .dcd, multi-model .pdb or .cif,
+    /// multi-frame .gro): write the scene of one frame (--frame).
+    trajectory: Option<PathBuf>,
+    #[command(flatten)]
+    play: PlayArgs,
     /// The scene file to write (.ron), atomically.
     #[arg(short, long)]
     output: PathBuf,
@@ -256,7 +356,7 @@ impl GpuArgs {
 
 /// The marching flags of `render`, `view` and `bench`: overrides of the
 /// scene file's `marching` section.
-#[derive(Args)]
+#[derive(Args, Clone)]
 struct MarchArgs {
     /// Marcher (default: the scene's marching.method).
     #[arg(long, value_enum)]
@@ -286,6 +386,11 @@ struct MarchArgs {
 }
 
 impl MarchArgs {
+    /// No overrides.
+    fn none() -> MarchArgs {
+        MarchArgs { method: None, min_step: None, max_steps: None, growth: None, refine: None, opaque: false }
+    }
+
     /// Loads the scene or molecule file at `path` with these overrides.
     fn load(&self, path: &Path, molecule: &MoleculeArgs) -> Result<Scene> {
         let mut scene = molecule.load(path)?;
@@ -361,8 +466,15 @@ struct BatchArgs {
 /// `isomarch render`.
 #[derive(Args)]
 struct RenderArgs {
-    /// Scene file (RON) or molecule file (.pdb, .cif, .gro, optionally .gz).
+    /// Scene file (RON) or molecule file (.pdb, .cif, .gro, optionally .gz),
+    /// or a trajectory's topology (those, or .psf).
     scene: PathBuf,
+    /// Trajectory of the topology (.xtc, .dcd, multi-model .pdb or .cif,
+    /// multi-frame .gro). With --frames, frame n of the batch is frame n
+    /// of the trajectory (a file of several models alone plays its models).
+    trajectory: Option<PathBuf>,
+    #[command(flatten)]
+    play: PlayArgs,
     /// Shaded image: PNG, or the linear image as 32-bit float OpenEXR
     /// (.exr; with --aov and no --aov-output, the AOVs go in the same file).
     /// The format follows the extension; any other is refused.
@@ -399,8 +511,21 @@ struct RenderArgs {
 /// `isomarch view`.
 #[derive(Args)]
 struct ViewArgs {
-    /// Scene file (RON) or molecule file (.pdb, .cif, .gro, optionally .gz).
+    /// Scene file (RON) or molecule file (.pdb, .cif, .gro, optionally .gz),
+    /// or a trajectory's topology (those, or .psf).
     scene: PathBuf,
+    /// Trajectory of the topology (.xtc, .dcd, multi-model .pdb or .cif,
+    /// multi-frame .gro), played at --fps frames per second of scene time.
+    trajectory: Option<PathBuf>,
+    #[command(flatten)]
+    play: PlayArgs,
+    /// Play every frame of a trajectory in turn, one per presented image,
+    /// as fast as they render (scene time then moves one frame per image).
+    #[arg(long)]
+    every_frame: bool,
+    /// Close after playing a trajectory through this many times.
+    #[arg(long, value_name = "N")]
+    loops: Option<u64>,
     /// Window size as WxH (default: the scene's camera.resolution).
     #[arg(long, value_parser = parse_size)]
     size: Option<(u32, u32)>,
@@ -506,8 +631,13 @@ struct ScalingArgs {
 /// `isomarch bench`.
 #[derive(Args)]
 struct BenchArgs {
-    /// Scene file (RON) or molecule file (.pdb, .cif, .gro, optionally .gz).
+    /// Scene file (RON) or molecule file (.pdb, .cif, .gro, optionally .gz),
+    /// or a trajectory's topology (those, or .psf).
     scene: PathBuf,
+    /// Trajectory of the topology: benchmark one frame (--frame).
+    trajectory: Option<PathBuf>,
+    #[command(flatten)]
+    play: PlayArgs,
     /// Comma-separated marchers; ratios are to the first.
     #[arg(long, default_value = "segment,sphere")]
     methods: String,
@@ -703,11 +833,24 @@ fn info() -> Result<()> {
 }
 
 fn render(args: RenderArgs) -> Result<()> {
-    let scene = args.march.load(&args.scene, &args.molecule)?;
-    let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
-    if let Some(range) = args.batch.frames {
-        return render_frames(args, range, scene, size);
+    let mut input = Input::open(&args.scene, args.trajectory.as_deref(), &args.molecule, &args.march, &args.play)?;
+    if let (Some(range), Some(k)) = (args.batch.frames, args.play.frame) {
+        bail!("--frame {k} renders one frame; --frames {}..{} renders a batch: give one of them", range.start, range.end);
     }
+    if let Some(range) = args.batch.frames {
+        let (scene, stager) = match input {
+            Input::Still(scene) => (scene, None),
+            Input::Frames(mut stager) => {
+                // Every frame asked for must exist before any is rendered.
+                stager.check_frame(range.end.saturating_sub(1).max(range.start) as usize)?;
+                (stager.scene(range.start as usize)?.0, Some(stager))
+            }
+        };
+        let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
+        return render_frames(args, range, scene, stager, size);
+    }
+    let scene = input.scene(args.play.frame)?;
+    let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
     let scene = scene.at_time(check_time(args.batch.time)?);
     let method = scene.marching.method;
     let job = RenderJob {
@@ -744,7 +887,7 @@ fn render(args: RenderArgs) -> Result<()> {
 }
 
 /// `render --frames`: a batch of PNGs and their statistics CSV.
-fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Scene, size: (u32, u32)) -> Result<()> {
+fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Scene, stager: Option<Stager>, size: (u32, u32)) -> Result<()> {
     let RenderArgs { output, batch, .. } = args;
     if args.heatmap.is_some() || !args.aov.is_empty() || args.stats.is_some() || args.aov_output.is_some() || args.steps_max.is_some() {
         bail!(
@@ -776,7 +919,7 @@ fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Sc
     let gpu = args.gpu.open()?;
     let method = scene.marching.method;
     let job = RenderJob::new(scene, method, size, output.clone(), gpu.timeout);
-    let s = isomarch::batch::run(&gpu.ctx, &job, &pattern, range, fps, shard, batch.skip_existing, &csv, &stop)?;
+    let s = isomarch::batch::run(&gpu.ctx, &job, stager, &pattern, range, fps, shard, batch.skip_existing, &csv, &stop)?;
     eprintln!(
         "{} frames rendered, {} kept from disk (shard {}/{}); statistics in {}",
         s.rendered,
@@ -794,7 +937,21 @@ fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Sc
 }
 
 fn view(args: ViewArgs) -> Result<()> {
-    let scene = args.march.load(&args.scene, &args.molecule)?;
+    let input = Input::open(&args.scene, args.trajectory.as_deref(), &args.molecule, &args.march, &args.play)?;
+    if (args.every_frame || args.loops.is_some()) && matches!(input, Input::Still(_)) {
+        bail!("--every-frame and --loops play a trajectory; {} holds one frame", args.scene.display());
+    }
+    if args.loops == Some(0) {
+        bail!("--loops must be at least 1");
+    }
+    let (scene, frames) = match input {
+        Input::Still(scene) => (scene, None),
+        Input::Frames(mut stager) => {
+            let start = args.play.frame.unwrap_or(0);
+            let (scene, _) = stager.scene(start)?;
+            (scene, Some(isomarch::view::Playback { stager, start, every_frame: args.every_frame, loops: args.loops }))
+        }
+    };
     let fps = check_fps(args.fps)?;
     if !(args.preview_ms.is_finite() && args.preview_ms > 0.0) {
         bail!("--preview-ms must be positive, got {}", args.preview_ms);
@@ -808,6 +965,7 @@ fn view(args: ViewArgs) -> Result<()> {
         method: scene.marching.method,
         size: args.size.unwrap_or((scene.camera.width, scene.camera.height)),
         scene,
+        frames,
         time,
         paused: args.paused,
         fps,
@@ -824,6 +982,17 @@ fn view(args: ViewArgs) -> Result<()> {
         "presented {} frames ({} at full resolution) in {:.1} s; last: {}, {:.2} steps/ray",
         s.presented, s.full_frames, s.seconds, s.method, s.steps_per_ray
     );
+    if let Some(p) = &s.playback {
+        println!(
+            "trajectory: {} frames shown ({:.2} per second), {} decoded in {:.1} ms each on the decoder thread, marching {:.1} ms per shown frame; peak RSS {}",
+            p.shown,
+            p.shown as f64 / s.seconds.max(1e-9),
+            p.decoded,
+            p.decode_ms / p.decoded.max(1) as f64,
+            p.march_ms / p.shown.max(1) as f64,
+            isomarch::stats::peak_rss_mib().map_or("n/a".into(), |m| format!("{m:.1} MiB"))
+        );
+    }
     // No context: the window closed before the device was opened.
     s.ctx.as_deref().map_or(Ok(()), finish)
 }
@@ -902,16 +1071,60 @@ fn scene(args: SceneArgs) -> Result<()> {
     if !args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron")) {
         bail!("-o {}: a scene file must end in .ron", args.output.display());
     }
-    let m = isomarch::molecule::read(&args.molecule)?;
-    let (text, notes) = isomarch::molecule::build::scene_text(&m, &args.molecule_args.options())?;
-    for w in &notes.warnings {
-        eprintln!("warning: {w}");
+    if !isomarch::molecule::is_molecule(&args.molecule) && args.trajectory.is_none() {
+        bail!("{}: not a molecule file: expected .pdb, .ent, .cif, .mmcif or .gro, optionally .gz", args.molecule.display());
     }
+    let input = Input::open(&args.molecule, args.trajectory.as_deref(), &args.molecule_args, &MarchArgs::none(), &args.play)?;
+    let (text, source) = match input {
+        Input::Frames(mut stager) => {
+            let k = args.play.frame.unwrap_or(0);
+            (stager.text(k)?.0, stager.trajectory.topology.source.clone())
+        }
+        Input::Still(_) => {
+            let m = isomarch::molecule::read(&args.molecule)?;
+            let (text, notes) = isomarch::molecule::build::scene_text(&m, &args.molecule_args.options())?;
+            for w in &notes.warnings {
+                eprintln!("warning: {w}");
+            }
+            eprintln!("{}", notes.summary);
+            (text, m.source)
+        }
+    };
     // The text must load as the molecule renders: check before writing.
-    Scene::parse(&text, &m.source)?;
+    Scene::parse(&text, &source)?;
     write_atomic(&args.output, text.as_bytes())?;
-    eprintln!("{}", notes.summary);
     println!("wrote {}", args.output.display());
+    Ok(())
+}
+
+/// `isomarch frames`: every frame's time and mean position, as CSV on
+/// stdout.
+fn frames(args: FramesArgs) -> Result<()> {
+    use std::io::Write as _;
+    let mut t = isomarch::molecule::trajectory::open(&args.topology, args.trajectory.as_deref())?;
+    let sites = t.topology.sites;
+    if let Some(&i) = args.atoms.iter().find(|&&i| i >= sites) {
+        bail!("--atoms {i}: the topology has {sites} atoms (0 to {})", sites - 1);
+    }
+    let mut out = std::io::stdout().lock();
+    let mut header = "frame,time_ps,atoms,mean_x,mean_y,mean_z".to_string();
+    for i in &args.atoms {
+        header.push_str(&format!(",x{i},y{i},z{i}"));
+    }
+    writeln!(out, "{header}")?;
+    for k in 0..t.len() {
+        let f = t.frames.read(k)?;
+        let present: Vec<glam::DVec3> = f.positions.iter().copied().filter(|p| p.is_finite()).collect();
+        let mean = present.iter().fold(glam::DVec3::ZERO, |a, &p| a + p) / present.len().max(1) as f64;
+        let mut row =
+            format!("{k},{},{},{:.6},{:.6},{:.6}", f.time_ps.map_or(String::new(), |t| format!("{t:.6}")), present.len(), mean.x, mean.y, mean.z);
+        for &i in &args.atoms {
+            let p = f.positions[i];
+            row.push_str(&format!(",{:.6},{:.6},{:.6}", p.x, p.y, p.z));
+        }
+        writeln!(out, "{row}")?;
+    }
+    eprintln!("{}: {} frames of {sites} atoms", t.source, t.len());
     Ok(())
 }
 
@@ -966,7 +1179,7 @@ fn bench(args: BenchArgs) -> Result<()> {
         FileFormat::of("--heatmap-grid", path, &[FileFormat::Png])?;
     }
     // An animated scene is measured as posed at time 0.
-    let scene = args.march.load(&args.scene, &args.molecule)?.at_time(0.0);
+    let scene = Input::open(&args.scene, args.trajectory.as_deref(), &args.molecule, &args.march, &args.play)?.scene(args.play.frame)?.at_time(0.0);
     let variants = args.variants.variants(&scene);
     let camera = args.camera.map(|(w, h)| if w == 0 { (scene.camera.width, scene.camera.height) } else { (w, h) });
     let plan = bench::Plan { methods: &methods, variants: &variants, rays, seed: args.seed, repeats: args.repeat, camera };
@@ -1026,6 +1239,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Scene(args) => scene(args),
         Command::Scaling(args) => scaling(args),
         Command::MergeStats(args) => merge_stats(args),
+        Command::Frames(args) => frames(args),
     }
 }
 

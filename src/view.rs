@@ -27,6 +27,7 @@ use winit::window::{Window, WindowId};
 use crate::gpu::{Context, ContextOptions, Presented, Presenter};
 use crate::layout::GpuRay;
 use crate::method::Method;
+use crate::molecule::playback::{Order, Prefetch, Stager};
 use crate::output::{self, LEGEND_HEIGHT};
 use crate::render::offscreen::{march_frame, pixel_stats};
 use crate::render::rays::{PIXEL_TILE, camera_rays};
@@ -34,10 +35,13 @@ use crate::render::{MarchOptions, Renderer};
 use crate::scene::Scene;
 
 /// How to open the viewer.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct ViewOptions {
-    /// The scene as loaded (with its animation).
+    /// The scene as loaded (with its animation); of a trajectory, its
+    /// first frame's.
     pub scene: Scene,
+    /// A trajectory to play: frame n at scene time n / fps, looping.
+    pub frames: Option<Playback>,
     pub method: Method,
     /// Initial window size in pixels.
     pub size: (u32, u32),
@@ -45,7 +49,8 @@ pub struct ViewOptions {
     pub time: f64,
     /// Start paused.
     pub paused: bool,
-    /// Left/Right step by 1/fps seconds of scene time.
+    /// Left/Right step by 1/fps seconds of scene time (one frame of a
+    /// trajectory).
     pub fps: f64,
     /// Wall time one piece of rendering may take before the window handles
     /// its events again (sets the preview resolution and the tiles).
@@ -61,6 +66,89 @@ pub struct ViewOptions {
     pub timeout: Duration,
 }
 
+/// A trajectory for the viewer.
+#[derive(Debug)]
+pub struct Playback {
+    pub stager: Stager,
+    /// The frame shown first.
+    pub start: usize,
+    /// Show every frame in turn, one per presented image (scene time
+    /// moves one frame per image) instead of the frame of the wall clock.
+    pub every_frame: bool,
+    /// Close after playing the trajectory through this many times.
+    pub loops: Option<u64>,
+}
+
+/// What playing a trajectory did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PlaybackStats {
+    /// Frames shown (each marched at least once), the start frame included.
+    pub shown: u64,
+    /// Frames the decoder thread delivered, and its wall time on them
+    /// (reading the frame and building its scene).
+    pub decoded: u64,
+    pub decode_ms: f64,
+    /// Wall time of marching, all frames together.
+    pub march_ms: f64,
+}
+
+/// How many decoded frames wait ready for the viewer.
+const PREFETCH_DEPTH: usize = 3;
+
+/// A trajectory being played.
+struct Player {
+    prefetch: Prefetch,
+    len: usize,
+    every_frame: bool,
+    loops: Option<u64>,
+    /// The frame shown, its simulation time and its scene.
+    frame: usize,
+    time_ps: Option<f64>,
+    scene: Scene,
+    /// The frame the decoder delivers next.
+    expected: usize,
+    stats: PlaybackStats,
+}
+
+impl Player {
+    /// The frame of scene time `time` at `fps` frames per second.
+    fn frame_at(&self, time: f64, fps: f64) -> usize {
+        ((time * fps + 1e-9).floor() as i64).rem_euclid(self.len as i64) as usize
+    }
+
+    /// Takes `wanted` from the decoder if it is ready (seeking there when
+    /// the decoder is not on its way), waiting for it when `wait`. Returns
+    /// whether the frame shown changed.
+    fn fetch(&mut self, wanted: usize, wait: bool) -> Result<bool> {
+        if wanted == self.frame {
+            return Ok(false);
+        }
+        let ahead = (wanted + self.len - self.expected) % self.len;
+        if ahead > PREFETCH_DEPTH + 1 {
+            self.prefetch.seek(Order::Loop(wanted));
+            self.expected = wanted;
+        }
+        loop {
+            let staged = if wait { self.prefetch.wait() } else { self.prefetch.try_next() };
+            let Some(staged) = staged else { return Ok(false) };
+            let staged = staged?;
+            self.stats.decoded += 1;
+            self.stats.decode_ms += staged.decode.as_secs_f64() * 1e3;
+            self.expected = (staged.frame + 1) % self.len;
+            if staged.frame == wanted {
+                (self.frame, self.time_ps, self.scene) = (staged.frame, staged.time_ps, staged.scene);
+                self.stats.shown += 1;
+                return Ok(true);
+            }
+        }
+    }
+
+    /// Whether the trajectory has been played through `loops` times.
+    fn done(&self) -> bool {
+        self.loops.is_some_and(|n| self.stats.shown >= n * self.len as u64)
+    }
+}
+
 /// What a viewer session did, for the caller to report.
 pub struct ViewSummary {
     pub presented: u64,
@@ -70,13 +158,15 @@ pub struct ViewSummary {
     pub steps_per_ray: f64,
     /// The device's context, for its validation messages.
     pub ctx: Option<Arc<Context>>,
+    /// Of a trajectory.
+    pub playback: Option<PlaybackStats>,
 }
 
 /// Runs the viewer until the window closes (Esc, the close button, or
 /// `exit_after` frames).
 pub fn run(options: ViewOptions) -> Result<ViewSummary> {
     let event_loop = EventLoop::new().context("opening the window system (no display? under CI, run inside Xvfb)")?;
-    let mut app = App::new(options);
+    let mut app = App::new(options)?;
     event_loop.run_app(&mut app).context("running the window's event loop")?;
     if let Some(e) = app.error.take() {
         // The GPU objects go first, while the window still exists.
@@ -91,6 +181,7 @@ pub fn run(options: ViewOptions) -> Result<ViewSummary> {
         method: app.input.method,
         steps_per_ray: app.schedule.steps_per_ray,
         ctx: app.ctx.take(),
+        playback: app.player.as_ref().map(|p| p.stats),
     })
 }
 
@@ -201,11 +292,14 @@ struct Camera {
     playing: bool,
     clock: Instant,
     orbit: Orbit,
+    /// Scene seconds per wall second (+ and - double and halve it).
+    speed: f64,
 }
 
 impl Camera {
     fn new(options: &ViewOptions, now: Instant) -> Camera {
-        Camera { time: options.time, playing: !options.paused, clock: now, orbit: Orbit::default() }
+        let start = options.frames.as_ref().map_or(0.0, |p| p.start as f64 / options.fps);
+        Camera { time: options.time + start, playing: !options.paused, clock: now, orbit: Orbit::default(), speed: 1.0 }
     }
 
     /// Moves scene time on by the wall time since the last call, while
@@ -213,7 +307,7 @@ impl Camera {
     fn advance(&mut self) {
         if self.playing {
             let now = Instant::now();
-            self.time += now.duration_since(self.clock).as_secs_f64();
+            self.time += now.duration_since(self.clock).as_secs_f64() * self.speed;
             self.clock = now;
         }
     }
@@ -301,6 +395,7 @@ impl Schedule {
 
 struct App {
     options: ViewOptions,
+    player: Option<Player>,
     gpu: Option<Gpu>,
     ctx: Option<Arc<Context>>,
     error: Option<anyhow::Error>,
@@ -310,17 +405,36 @@ struct App {
 }
 
 impl App {
-    fn new(options: ViewOptions) -> App {
+    fn new(mut options: ViewOptions) -> Result<App> {
         let now = Instant::now();
-        App {
+        let player = match options.frames.take() {
+            Some(p) => {
+                let len = p.stager.len();
+                let next = (p.start + 1) % len;
+                Some(Player {
+                    prefetch: Prefetch::spawn(p.stager, Order::Loop(next), PREFETCH_DEPTH)?,
+                    len,
+                    every_frame: p.every_frame,
+                    loops: p.loops,
+                    frame: p.start,
+                    time_ps: None,
+                    scene: options.scene.clone(),
+                    expected: next,
+                    stats: PlaybackStats { shown: 1, ..Default::default() },
+                })
+            }
+            None => None,
+        };
+        Ok(App {
             input: Input::new(&options, now),
             camera: Camera::new(&options, now),
             schedule: Schedule::new(now),
+            player,
             options,
             gpu: None,
             ctx: None,
             error: None,
-        }
+        })
     }
 
     /// The scene file's name without folder and extension.
@@ -329,12 +443,13 @@ impl App {
     }
 
     fn animated(&self) -> bool {
-        !self.options.scene.animation.is_static()
+        !self.options.scene.animation.is_static() || self.player.as_ref().is_some_and(|p| p.len > 1)
     }
 
     /// The scene as it should look now, for an image of `size`.
     fn posed(&self, size: (u32, u32)) -> Scene {
-        let mut s = self.options.scene.at_time(self.camera.time);
+        let base = self.player.as_ref().map_or(&self.options.scene, |p| &p.scene);
+        let mut s = base.at_time(self.camera.time);
         if !self.input.transparency {
             s.transparency = None;
         }
@@ -391,6 +506,8 @@ impl App {
                     self.schedule.remeasure();
                 }
                 "s" => self.save_screenshot(None)?,
+                "+" | "=" => self.camera.speed = (self.camera.speed * 2.0).min(64.0),
+                "-" => self.camera.speed = (self.camera.speed / 2.0).max(1.0 / 64.0),
                 _ => {}
             },
             _ => {}
@@ -482,6 +599,9 @@ impl App {
         // Transparent as shown: T takes the posed scene's transparency away.
         let out = march_frame(&mut gpu.renderer, self.input.method, MarchOptions::for_scene(scene), rays)?;
         self.schedule.measured(t.elapsed(), rays.len());
+        if let Some(p) = &mut self.player {
+            p.stats.march_ms += t.elapsed().as_secs_f64() * 1e3;
+        }
         Ok(out)
     }
 
@@ -564,7 +684,27 @@ impl App {
             el.exit();
             return Ok(());
         }
+        if self.player.as_ref().is_some_and(|p| p.done()) && !self.schedule.dirty {
+            el.exit();
+            return Ok(());
+        }
         self.camera.advance();
+        if let Some(p) = &mut self.player {
+            let playing = self.camera.playing && p.len > 1;
+            if p.every_frame && playing {
+                // The next frame, whatever the clock says; scene time follows.
+                let next = (p.frame + 1) % p.len;
+                if p.fetch(next, true)? {
+                    self.camera.time = (p.stats.shown - 1) as f64 / self.options.fps;
+                    self.schedule.dirty = true;
+                }
+            } else {
+                let wanted = p.frame_at(self.camera.time, self.options.fps);
+                if p.fetch(wanted, false)? {
+                    self.schedule.dirty = true;
+                }
+            }
+        }
         let size = self.gpu.as_ref().map(|g| g.presenter.extent()).unwrap_or((1, 1));
         let moving = (self.camera.playing && self.animated()) || self.input.moving();
         // Scripted runs keep presenting, even a still view.
@@ -587,7 +727,8 @@ impl App {
             self.show()?;
         }
         let schedule = &self.schedule;
-        let busy = moving || schedule.dirty || schedule.wants_full || schedule.progressive.is_some() || scripted;
+        let waiting = self.player.as_ref().is_some_and(|p| p.frame != p.frame_at(self.camera.time, self.options.fps) && !p.every_frame);
+        let busy = moving || schedule.dirty || schedule.wants_full || schedule.progressive.is_some() || scripted || waiting;
         // Going idle: the title must show the final state.
         self.update_title(!busy);
         el.set_control_flow(if busy { ControlFlow::Poll } else { ControlFlow::Wait });
@@ -616,6 +757,15 @@ impl App {
             title.push_str(&format!(" | refining {:.0}%", 100.0 * job.next as f64 / job.rays.len().max(1) as f64));
         } else if schedule.preview_divisor > 1 {
             title.push_str(&format!(" | preview 1/{}", schedule.preview_divisor));
+        }
+        if let Some(p) = &self.player {
+            title.push_str(&format!(" | frame {}/{}", p.frame, p.len));
+            if let Some(t) = p.time_ps {
+                title.push_str(&format!(" ({t} ps)"));
+            }
+        }
+        if camera.speed != 1.0 {
+            title.push_str(&format!(" | speed x{}", camera.speed));
         }
         if !camera.playing {
             title.push_str(" | paused");

@@ -220,7 +220,7 @@ impl NativeRenderer {
         let method = posed.marching.method;
         let job = RenderJob::new(posed, method, (width, height), PathBuf::new(), self.timeout);
         let ctx = Arc::clone(&self.ctx);
-        let (frame, stats, _) = py.detach(move || render_frame_indexed(&ctx, &job)).map_err(raise)?;
+        let (frame, stats, _, _) = py.detach(move || render_frame_indexed(&ctx, &job)).map_err(raise)?;
         let shaded = frame.shaded();
         let mut rgba = Vec::with_capacity(frame.pixels.len() * 4);
         for p in shaded.pixels() {

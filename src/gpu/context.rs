@@ -320,6 +320,14 @@ impl Context {
         self.messages.lock().map(|m| m.clone()).unwrap_or_default()
     }
 
+    /// Bytes of GPU memory allocated now (buffers and images), and the
+    /// bytes of the memory blocks reserved for them.
+    pub fn gpu_memory(&self) -> Option<(u64, u64)> {
+        let guard = self.allocator.lock().ok()?;
+        let report = guard.as_ref()?.generate_report();
+        Some((report.total_allocated_bytes, report.total_capacity_bytes))
+    }
+
     /// Runs `f` with the allocator.
     pub(crate) fn with_allocator<T>(&self, f: impl FnOnce(&mut Allocator) -> Result<T>) -> Result<T> {
         let mut guard = self.allocator.lock().map_err(|_| anyhow!("GPU allocator lock poisoned"))?;

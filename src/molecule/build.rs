@@ -120,15 +120,60 @@ fn vec3(p: DVec3) -> String {
 
 /// The scene of `m` as RON text, with what is worth telling the user.
 pub fn scene_text(m: &Molecule, o: &MoleculeOptions) -> Result<(String, Notes)> {
+    staged_text(m, o, None, "")
+}
+
+/// Where the camera looks and how much it must hold: the sphere about
+/// `center` of radius `reach` (Å).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Framing {
+    pub center: DVec3,
+    pub reach: f64,
+}
+
+impl Framing {
+    /// The sphere about the centre of the balls' bounding box that holds
+    /// every ball whole.
+    pub fn of(balls: &[Ball]) -> Framing {
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for b in balls {
+            lo = lo.min(b.center);
+            hi = hi.max(b.center);
+        }
+        let center = 0.5 * (lo + hi);
+        let reach = balls.iter().map(|b| (b.center - center).length() + b.radius).fold(0.0, f64::max);
+        Framing { center, reach }
+    }
+}
+
+/// The balls `m` is drawn with under `o` (hydrogens left out unless asked
+/// for).
+pub fn balls_of(m: &Molecule, o: &MoleculeOptions) -> Vec<Ball> {
+    kept(m, o).iter().map(|a| Ball { center: a.position, radius: radius(&a.element, o), color: None }).collect()
+}
+
+/// The atoms drawn: hydrogens left out unless asked for.
+fn kept<'a>(m: &'a Molecule, o: &MoleculeOptions) -> Vec<&'a super::Atom> {
+    m.atoms.iter().filter(|a| o.hydrogens || !matches!(a.element.as_str(), "H" | "D")).collect()
+}
+
+/// An element's radius as drawn (Bondi's, or the fallback, times the scale).
+fn radius(symbol: &str, o: &MoleculeOptions) -> f64 {
+    elements::radius(symbol).unwrap_or(elements::FALLBACK_RADIUS) * o.radius_scale
+}
+
+/// [`scene_text`] with the camera on `framing` (else on `m` itself) and
+/// `note` (a comment line, or empty) after the first comment: a
+/// trajectory's frame keeps the first frame's camera.
+pub fn staged_text(m: &Molecule, o: &MoleculeOptions, framing: Option<Framing>, note: &str) -> Result<(String, Notes)> {
     o.check()?;
-    let atoms: Vec<_> = m.atoms.iter().filter(|a| o.hydrogens || !matches!(a.element.as_str(), "H" | "D")).collect();
+    let atoms = kept(m, o);
     if atoms.is_empty() {
         bail!("{}: all {} atoms are hydrogens, which are left out unless --hydrogens is given", m.source, m.atoms.len());
     }
     // Elements without a Bondi radius: one warning naming each with its
     // first line and count.
     let mut unknown: BTreeMap<&str, (usize, usize)> = BTreeMap::new();
-    let radius = |symbol: &str| elements::radius(symbol).unwrap_or(elements::FALLBACK_RADIUS) * o.radius_scale;
     for a in &atoms {
         if elements::radius(&a.element).is_none() {
             let e = unknown.entry(if a.element.is_empty() { "(blank)" } else { a.element.as_str() }).or_insert((a.line, 0));
@@ -164,7 +209,7 @@ pub fn scene_text(m: &Molecule, o: &MoleculeOptions) -> Result<(String, Notes)> 
             Coloring::None => None,
         }
     };
-    let balls: Vec<Ball> = atoms.iter().map(|a| Ball { center: a.position, radius: radius(&a.element), color: color(a) }).collect();
+    let balls: Vec<Ball> = atoms.iter().map(|a| Ball { center: a.position, radius: radius(&a.element, o), color: color(a) }).collect();
     let hydrogens = m.atoms.len() - atoms.len();
     notes.summary = format!(
         "{}: {} atoms{}{}{}, {} chain{}",
@@ -179,8 +224,9 @@ pub fn scene_text(m: &Molecule, o: &MoleculeOptions) -> Result<(String, Notes)> 
 
     let made_by = format!(
         "// Made by isomarch from {} (src/molecule/build.rs, docs/molecules.md).\n\
-         // {} atoms, one Gaussian each: r = {} x Bondi's van der Waals radius, s = {}, weight e^s; iso {}; colours by {}.",
+         // {}{} atoms, one Gaussian each: r = {} x Bondi's van der Waals radius, s = {}, weight e^s; iso {}; colours by {}.",
         m.source,
+        if note.is_empty() { String::new() } else { format!("{note}\n// ") },
         atoms.len(),
         num(o.radius_scale),
         num(o.sharpness),
@@ -191,7 +237,7 @@ pub fn scene_text(m: &Molecule, o: &MoleculeOptions) -> Result<(String, Notes)> 
             Coloring::None => "nothing (surface)",
         }
     );
-    Ok((balls_text(&made_by, &balls, o), notes))
+    Ok((framed_text(&made_by, &balls, o, framing.unwrap_or_else(|| Framing::of(&balls))), notes))
 }
 
 /// One atom as drawn: its centre, its radius (Å, `radius_scale` applied)
@@ -207,15 +253,12 @@ pub struct Ball {
 /// one Gaussian blob per ball (r its radius, s and iso from `o`), a camera
 /// on +z framing them all, the molecule scenes' lights and marching.
 pub fn balls_text(made_by: &str, balls: &[Ball], o: &MoleculeOptions) -> String {
-    // The camera frames the sphere around the box's centre that holds
-    // every atom's surface radius, with 5% to spare.
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for b in balls {
-        lo = lo.min(b.center);
-        hi = hi.max(b.center);
-    }
-    let center = 0.5 * (lo + hi);
-    let reach = balls.iter().map(|b| (b.center - center).length() + b.radius).fold(0.0, f64::max);
+    framed_text(made_by, balls, o, Framing::of(balls))
+}
+
+/// [`balls_text`] with the camera framing `framing`, with 5% to spare.
+fn framed_text(made_by: &str, balls: &[Ball], o: &MoleculeOptions, framing: Framing) -> String {
+    let Framing { center, reach } = framing;
     let distance = 1.05 * reach / (0.5 * FOV_Y.to_radians()).sin();
     let eye = center + DVec3::new(0.0, 0.0, distance);
     let weight = o.sharpness.exp();
@@ -314,9 +357,9 @@ mod tests {
         let atoms = elements
             .iter()
             .enumerate()
-            .map(|(i, e)| Atom { element: e.to_string(), position: DVec3::new(3.0 * i as f64, 0.0, 0.0), chain: "A".into(), line: i + 10 })
+            .map(|(i, e)| Atom { element: e.to_string(), position: DVec3::new(3.0 * i as f64, 0.0, 0.0), chain: "A".into(), line: i + 10, site: i })
             .collect();
-        Molecule { source: "m.pdb".into(), atoms, skipped_sites: None, extra_models: 0 }
+        Molecule { source: "m.pdb".into(), atoms, skipped_sites: None, extra_models: 0, sites: elements.len() }
     }
 
     #[test]

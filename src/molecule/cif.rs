@@ -83,10 +83,18 @@ fn missing(v: &str) -> bool {
 }
 
 pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
+    parse_model(text, file, 0)
+}
+
+/// The atoms of the `model`-th model (0-based, in order of appearance of
+/// `pdbx_PDB_model_num`); `extra_models` counts the models besides it.
+/// A file without that model gives no atoms.
+pub fn parse_model(text: &str, file: &str, model: usize) -> Result<Molecule, MoleculeError> {
     let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(line), message };
     let toks = tokenize(text, file)?;
     let mut atoms = Vec::new();
     let mut extra_models = 0;
+    let mut sites = 0;
     let mut blocks = 0;
     let mut i = 0;
     while i < toks.len() {
@@ -110,7 +118,7 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
             if i < toks.len() && !toks[i].quoted && toks[i].s.to_ascii_lowercase().starts_with("_atom_site.") {
                 return Err(err(toks[i].line, format!("{} has no value", toks[i].s)));
             }
-            extra_models += read_rows(&tags, &values, line, file, &mut atoms)?;
+            extra_models += read_rows(&tags, &values, line, file, model, &mut sites, &mut atoms)?;
             continue;
         }
         if t.quoted || !t.s.eq_ignore_ascii_case("loop_") {
@@ -145,17 +153,26 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
                 },
             ));
         }
-        extra_models += read_rows(&tags, values, loop_line, file, &mut atoms)?;
+        extra_models += read_rows(&tags, values, loop_line, file, model, &mut sites, &mut atoms)?;
     }
-    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models })
+    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models, sites })
 }
 
 /// The atoms of an `_atom_site` table (`tags`, and `values` row after
-/// row), first model only, appended to `atoms`; returns the count of
-/// models left out. Alternate locations are chosen per atom site: the
+/// row), of the `want`-th model only, appended to `atoms` (`sites` counts
+/// that model's rows); returns the count of models left out. Alternate locations are chosen per atom site: the
 /// first conformer given of each site is kept, so that a site whose only
 /// conformers are B and C is kept too.
-fn read_rows(tags: &[String], values: &[Tok], table_line: usize, file: &str, atoms: &mut Vec<Atom>) -> Result<usize, MoleculeError> {
+#[allow(clippy::too_many_arguments)]
+fn read_rows(
+    tags: &[String],
+    values: &[Tok],
+    table_line: usize,
+    file: &str,
+    want: usize,
+    sites: &mut usize,
+    atoms: &mut Vec<Atom>,
+) -> Result<usize, MoleculeError> {
     let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(line), message };
     let width = tags.len();
     let col = |name: &str| tags.iter().position(|t| t == &format!("_atom_site.{name}"));
@@ -171,19 +188,23 @@ fn read_rows(tags: &[String], values: &[Tok], table_line: usize, file: &str, ato
             .iter()
             .filter_map(|n| col(n))
             .collect();
-    let mut first_model: Option<&str> = None;
     let mut models: Vec<&str> = Vec::new();
     let mut alt_of_site: std::collections::HashMap<Vec<&str>, &str> = std::collections::HashMap::new();
     for row in values.chunks(width) {
         let line = row[0].line;
         if let Some(m) = model_col.map(|c| row[c].s) {
-            if !models.contains(&m) {
+            let k = models.iter().position(|x| *x == m).unwrap_or_else(|| {
                 models.push(m);
-            }
-            if *first_model.get_or_insert(m) != m {
+                models.len() - 1
+            });
+            if k != want {
                 continue;
             }
+        } else if want > 0 {
+            continue;
         }
+        let site = *sites;
+        *sites += 1;
         if let Some(a) = alt_col.map(|c| row[c].s).filter(|a| !missing(a)) {
             let site: Vec<&str> = site_cols.iter().map(|&c| row[c].s).collect();
             if *alt_of_site.entry(site).or_insert(a) != a {
@@ -195,7 +216,7 @@ fn read_rows(tags: &[String], values: &[Tok], table_line: usize, file: &str, ato
         let z = number(row[cz].s, "Cartn_z", file, row[cz].line)?;
         let element = if missing(row[symbol].s) { String::new() } else { element_case(row[symbol].s) };
         let chain = chain_col.map(|c| row[c].s).filter(|c| !missing(c)).unwrap_or("").to_string();
-        atoms.push(Atom { element, position: DVec3::new(x, y, z), chain, line });
+        atoms.push(Atom { element, position: DVec3::new(x, y, z), chain, line, site });
     }
     Ok(models.len().saturating_sub(1))
 }

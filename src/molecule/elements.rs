@@ -105,6 +105,52 @@ const JMOL: &[(&str, [u8; 3])] = &[
     ("U", [0, 143, 255]),
 ];
 
+/// Standard atomic weights (IUPAC 2021, abridged conventional values), u,
+/// of the elements biomolecular topologies hold: for reading elements from
+/// masses (PSF).
+const MASSES: &[(&str, f64)] = &[
+    ("H", 1.008),
+    ("He", 4.0026),
+    ("Li", 6.94),
+    ("B", 10.81),
+    ("C", 12.011),
+    ("N", 14.007),
+    ("O", 15.999),
+    ("F", 18.998),
+    ("Ne", 20.180),
+    ("Na", 22.990),
+    ("Mg", 24.305),
+    ("Al", 26.982),
+    ("Si", 28.085),
+    ("P", 30.974),
+    ("S", 32.06),
+    ("Cl", 35.45),
+    ("Ar", 39.95),
+    ("K", 39.098),
+    ("Ca", 40.078),
+    ("Mn", 54.938),
+    ("Fe", 55.845),
+    ("Co", 58.933),
+    ("Ni", 58.693),
+    ("Cu", 63.546),
+    ("Zn", 65.38),
+    ("Se", 78.971),
+    ("Br", 79.904),
+    ("Rb", 85.468),
+    ("Sr", 87.62),
+    ("Cd", 112.41),
+    ("I", 126.90),
+    ("Cs", 132.91),
+    ("Ba", 137.33),
+];
+
+/// The element whose atomic weight is nearest `mass` (u), if it lies
+/// within `tolerance`. Where two elements are that close (Ar and K, Co and
+/// Ni), the nearer wins.
+pub fn by_mass(mass: f64, tolerance: f64) -> Option<&'static str> {
+    MASSES.iter().map(|(s, m)| (*s, (m - mass).abs())).filter(|(_, d)| *d <= tolerance).min_by(|a, b| a.1.total_cmp(&b.1)).map(|(s, _)| s)
+}
+
 /// Jmol's colour for an unknown element.
 const UNKNOWN_COLOR: [u8; 3] = [255, 20, 147];
 
@@ -116,7 +162,9 @@ pub fn is_element(symbol: &str) -> bool {
 }
 
 /// Bondi's radius of `symbol` (periodic-table case), if the table has it.
+/// Deuterium (`D`) is drawn as hydrogen.
 pub fn radius(symbol: &str) -> Option<f64> {
+    let symbol = if symbol == "D" { "H" } else { symbol };
     BONDI.iter().find(|(s, _)| *s == symbol).map(|(_, r)| *r)
 }
 
@@ -128,6 +176,7 @@ pub fn linear(c: u8) -> f64 {
 
 /// The element's colour, linear RGB.
 pub fn color(symbol: &str) -> [f64; 3] {
+    let symbol = if symbol == "D" { "H" } else { symbol };
     let c = JMOL.iter().find(|(s, _)| *s == symbol).map_or(UNKNOWN_COLOR, |(_, c)| *c);
     c.map(linear)
 }
@@ -147,6 +196,9 @@ mod tests {
         assert!(is_element("Fe") && is_element("Zn") && !is_element("Xx"));
         assert!((color("O")[0] - 1.0).abs() < 1e-12);
         assert!(color("C")[0] > 0.2 && color("C")[0] < 0.35);
+        assert_eq!(by_mass(12.011, 0.6), Some("C"));
+        assert_eq!(by_mass(22.98977, 0.6), Some("Na"));
+        assert_eq!(by_mass(3.024, 0.6), None);
         for (s, r) in BONDI {
             assert!((1.0..3.0).contains(r), "{s}");
         }

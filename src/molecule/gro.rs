@@ -49,7 +49,13 @@ pub fn element(name: &str, residue: &str) -> Option<String> {
 }
 
 pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
-    let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(line), message };
+    parse_at(text, file, 0)
+}
+
+/// [`parse`] on text that starts after line `before` of the file (one
+/// frame of a trajectory): lines are named as in the file.
+pub fn parse_at(text: &str, file: &str, before: usize) -> Result<Molecule, MoleculeError> {
+    let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(before + line), message };
     let lines: Vec<&str> = text.lines().collect();
     let count_line = lines.get(1).ok_or_else(|| err(lines.len().max(1), "the file is cut short before its atom count (line 2)".into()))?;
     let count: usize = count_line.trim().parse().map_err(|_| err(2, format!("the atom count {:?} is not a whole number", count_line.trim())))?;
@@ -101,19 +107,23 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
         }
         let Some(element) = element(line[10..15].trim(), line[5..10].trim()) else {
             if skipped == 0 {
-                first_skipped = n;
+                first_skipped = before + n;
             }
             skipped += 1;
             continue;
         };
-        let c = |i: usize, what: &str| number(&line[20 + i * width..20 + (i + 1) * width], what, file, n);
+        let c = |i: usize, what: &str| number(&line[20 + i * width..20 + (i + 1) * width], what, file, before + n);
         let p = DVec3::new(c(0, "x (nm)")?, c(1, "y (nm)")?, c(2, "z (nm)")?) * 10.0;
-        atoms.push(Atom { element, position: p, chain: chain.to_string(), line: n });
+        atoms.push(Atom { element, position: p, chain: chain.to_string(), line: before + n, site: k });
     }
     if lines.len() < count + 3 {
         return Err(err(lines.len(), "the file is cut short: the box line after the atoms is missing".into()));
     }
-    Ok(Molecule { source: file.into(), atoms, skipped_sites: (skipped > 0).then_some((skipped, first_skipped)), extra_models: 0 })
+    // Frames after the first (a trajectory written as GRO): as many
+    // blocks of this size as the text after the box holds.
+    let rest = lines[count + 3..].iter().rposition(|l| !l.trim().is_empty()).map_or(0, |last| last + 1);
+    let extra_models = rest.div_ceil(count + 3);
+    Ok(Molecule { source: file.into(), atoms, skipped_sites: (skipped > 0).then_some((skipped, first_skipped)), extra_models, sites: count })
 }
 
 #[cfg(test)]

@@ -19,6 +19,9 @@ pub mod cif;
 pub mod elements;
 pub mod gro;
 pub mod pdb;
+pub mod playback;
+pub mod psf;
+pub mod trajectory;
 
 use std::io::Read as _;
 use std::path::Path;
@@ -37,6 +40,10 @@ pub struct Atom {
     pub chain: String,
     /// The line it was read from (1-based, of the decompressed text).
     pub line: usize,
+    /// Its place among the file's coordinate sites (0-based, counting
+    /// sites skipped or left out too): the index of its position in each
+    /// frame of a trajectory written for this topology.
+    pub site: usize,
 }
 
 /// The atoms of a file, and what was left out and why.
@@ -51,6 +58,9 @@ pub struct Molecule {
     /// Models after the first that were left out (PDB `MODEL`, mmCIF
     /// `pdbx_PDB_model_num`).
     pub extra_models: usize,
+    /// How many coordinate sites a frame of this structure holds (atoms
+    /// kept, skipped and left out as alternate locations).
+    pub sites: usize,
 }
 
 /// A problem with a molecule file: one line, naming the file and, where

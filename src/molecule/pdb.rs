@@ -45,14 +45,21 @@ fn element(line: &str) -> String {
 }
 
 pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
+    parse_at(text, file, 0)
+}
+
+/// [`parse`] on text that starts after line `skipped` of the file (one
+/// model of a trajectory): lines are named as in the file.
+pub fn parse_at(text: &str, file: &str, skipped: usize) -> Result<Molecule, MoleculeError> {
     let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(line), message };
     let mut atoms = Vec::new();
     let mut models = 0usize;
     let mut alt_of_site: std::collections::HashMap<(String, String), char> = std::collections::HashMap::new();
     let cut_short = !text.is_empty() && !text.ends_with('\n');
     let count = text.lines().count();
+    let mut sites = 0usize;
     for (i, line) in text.lines().enumerate() {
-        let n = i + 1;
+        let n = skipped + i + 1;
         if line.starts_with("MODEL") {
             models += 1;
             continue;
@@ -67,7 +74,7 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
             let record = &line[..6].trim();
             return Err(err(
                 n,
-                if cut_short && n == count {
+                if cut_short && i + 1 == count {
                     format!("the file is cut short inside this {record} record ({} of the 54 columns that hold its coordinates)", line.len())
                 } else {
                     format!("this {record} record has {} columns; its coordinates need columns 31-54", line.len())
@@ -77,6 +84,8 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
         // Alternate locations per atom site (name, residue, chain, number,
         // insertion code: columns 13-16 and 18-27): the first conformer
         // given of each site is kept, so a site given only as B and C stays.
+        let site = sites;
+        sites += 1;
         let altloc = line.as_bytes()[16] as char;
         if altloc != ' ' {
             let site = (line[12..16].to_string(), line[17..27].to_string());
@@ -92,9 +101,10 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
             position: DVec3::new(x, y, z),
             chain: cols(line, 22, 22).unwrap_or("").trim().to_string(),
             line: n,
+            site,
         });
     }
-    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models: models.saturating_sub(1) })
+    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models: models.saturating_sub(1), sites })
 }
 
 #[cfg(test)]

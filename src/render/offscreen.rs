@@ -87,21 +87,44 @@ pub struct RenderStats {
     /// The spatial index the frame was marched with (`null` in JSON for
     /// scenes of at most 64 primitives, which march without one).
     pub index: Option<IndexStats>,
+    /// Memory when the frame was marched.
+    pub memory: Memory,
+}
+
+/// Memory in use, MiB.
+#[derive(Clone, Debug, Serialize)]
+pub struct Memory {
+    /// The process's peak resident set (VmHWM; `null` off Linux).
+    pub peak_rss_mib: Option<f64>,
+    /// GPU memory allocated for buffers and images, and the blocks
+    /// reserved to hold them.
+    pub gpu_allocated_mib: Option<f64>,
+    pub gpu_reserved_mib: Option<f64>,
+}
+
+impl Memory {
+    pub fn now(ctx: &Context) -> Memory {
+        let gpu = ctx.gpu_memory();
+        let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+        Memory { peak_rss_mib: crate::stats::peak_rss_mib(), gpu_allocated_mib: gpu.map(|g| mib(g.0)), gpu_reserved_mib: gpu.map(|g| mib(g.1)) }
+    }
 }
 
 /// Marches the job's camera rays and returns the frame.
 pub fn render_frame(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Frame, MarchStats)> {
-    render_frame_indexed(ctx, job).map(|(frame, stats, _)| (frame, stats))
+    render_frame_indexed(ctx, job).map(|(frame, stats, _, _)| (frame, stats))
 }
 
-/// [`render_frame`], and what the build of the spatial index made.
-pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Frame, MarchStats, Option<IndexStats>)> {
+/// [`render_frame`], what the build of the spatial index made, and the
+/// memory in use while the renderer held the scene.
+pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Frame, MarchStats, Option<IndexStats>, Memory)> {
     let scene = job.scene.recentred_on_camera();
     let mut renderer = Renderer::new(ctx, &scene)?;
     renderer.timeout = job.timeout;
     let (rays, pixels) = camera_rays(&scene.camera, job.width, job.height, &scene.bounds);
     let out = march_frame(&mut renderer, job.method, MarchOptions::for_scene(&scene), &rays)?;
-    Ok((Frame::from_results(job.width, job.height, &out.results, &pixels), pixel_stats(&out, &pixels), renderer.index_stats()))
+    let memory = Memory::now(ctx);
+    Ok((Frame::from_results(job.width, job.height, &out.results, &pixels), pixel_stats(&out, &pixels), renderer.index_stats(), memory))
 }
 
 /// Statistics of a frame's march over its pixels (not the padding rays
@@ -137,7 +160,7 @@ pub fn march_frame(renderer: &mut Renderer, method: Method, options: MarchOption
 /// Renders and writes every requested file. All files are encoded before
 /// the first is written, and each is written atomically.
 pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStats> {
-    let (frame, march, index) = render_frame_indexed(ctx, job)?;
+    let (frame, march, index, memory) = render_frame_indexed(ctx, job)?;
     let stats = RenderStats {
         scene: job.scene.source.clone(),
         method: job.method.to_string(),
@@ -146,6 +169,7 @@ pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStat
         height: job.height,
         march,
         index,
+        memory,
     };
     let outputs = job.outputs()?;
     // An EXR image with AOVs that go to the same file holds both.

@@ -1,0 +1,265 @@
+//! Trajectories as scenes, decoded ahead of the renderer (docs/trajectories.md).
+//!
+//! [`Stager`] turns frame k of a [`Trajectory`] into the scene text that
+//! `isomarch scene TOPOLOGY TRAJECTORY --frame k` writes, and that text
+//! into the [`Scene`] every command renders, so a batch frame and the
+//! scene file of the same frame are the same scene by construction. The
+//! camera is framed once, on the first frame or on every frame's atoms
+//! ([`FramingRule`]), and stays put.
+//!
+//! [`Prefetch`] runs a stager on its own thread, decoding and building the
+//! frames a player asks for into a bounded queue: memory holds `depth`
+//! scenes whatever the trajectory's length, and the renderer takes a
+//! ready scene instead of waiting on the decoder. A seek (the viewer
+//! stepping back, or looping) starts a new order; frames of the old one
+//! still queued are dropped on arrival.
+
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Result, bail};
+use glam::DVec3;
+
+use super::MoleculeOptions;
+use super::build::{Framing, Notes, balls_of, staged_text};
+use super::trajectory::Trajectory;
+use crate::scene::Scene;
+
+/// Where the camera of a trajectory looks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum FramingRule {
+    /// The first frame's atoms, as a single structure would be framed.
+    #[default]
+    First,
+    /// Every frame's atoms (one pass over the trajectory on opening).
+    All,
+}
+
+/// Changes applied to every frame's scene after it is built (the command
+/// line's marching overrides).
+pub type Adjust = Box<dyn Fn(&mut Scene) -> Result<()> + Send>;
+
+/// Turns frames of a trajectory into scenes.
+pub struct Stager {
+    pub trajectory: Trajectory,
+    pub options: MoleculeOptions,
+    pub framing: Framing,
+    adjust: Option<Adjust>,
+}
+
+impl std::fmt::Debug for Stager {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Stager").field("trajectory", &self.trajectory).field("framing", &self.framing).finish()
+    }
+}
+
+impl Stager {
+    /// A stager with the camera framed by `rule`.
+    pub fn new(trajectory: Trajectory, options: MoleculeOptions, rule: FramingRule) -> Result<Stager> {
+        options.check()?;
+        let first = balls_of(&trajectory.topology, &options);
+        if first.is_empty() {
+            bail!(
+                "{}: all {} atoms are hydrogens, which are left out unless --hydrogens is given",
+                trajectory.topology.source,
+                trajectory.topology.atoms.len()
+            );
+        }
+        let mut framing = Framing::of(&first);
+        let mut t = trajectory;
+        if rule == FramingRule::All {
+            let (mut lo, mut hi, mut widest) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY), 0f64);
+            for k in 0..t.len() {
+                let frame = t.frames.read(k)?;
+                let m = t.molecule_at(&frame)?;
+                for b in balls_of(&m, &options) {
+                    lo = lo.min(b.center);
+                    hi = hi.max(b.center);
+                    widest = widest.max(b.radius);
+                }
+            }
+            // The box's half diagonal holds every centre of every frame.
+            framing = Framing { center: 0.5 * (lo + hi), reach: 0.5 * (hi - lo).length() + widest };
+        }
+        Ok(Stager { trajectory: t, options, framing, adjust: None })
+    }
+
+    /// Applies `adjust` to every scene built from now on.
+    pub fn with_adjust(mut self, adjust: Adjust) -> Stager {
+        self.adjust = Some(adjust);
+        self
+    }
+
+    pub fn len(&self) -> usize {
+        self.trajectory.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.trajectory.is_empty()
+    }
+
+    /// Checks that `frame` exists.
+    pub fn check_frame(&self, frame: usize) -> Result<()> {
+        if frame >= self.len() {
+            bail!("{}: no frame {frame}: the trajectory has {} (0 to {})", self.trajectory.source, self.len(), self.len() - 1);
+        }
+        Ok(())
+    }
+
+    /// The scene text of frame `k`, its simulation time, and the notes
+    /// of building it.
+    pub fn text(&mut self, k: usize) -> Result<(String, Option<f64>, Notes)> {
+        self.check_frame(k)?;
+        let frame = self.trajectory.frames.read(k)?;
+        let m = self.trajectory.molecule_at(&frame)?;
+        let time = frame.time_ps.map_or(String::new(), |t| format!(", t = {t} ps"));
+        let note = format!("Frame {k} of {} ({} frames{time}), camera on {}.", self.trajectory.source, self.len(), describe(&self.framing));
+        let (text, notes) = staged_text(&m, &self.options, Some(self.framing), &note)?;
+        Ok((text, frame.time_ps, notes))
+    }
+
+    /// The scene of frame `k` (as [`Stager::text`] writes it, parsed).
+    pub fn scene(&mut self, k: usize) -> Result<(Scene, Option<f64>)> {
+        let (text, time, _) = self.text(k)?;
+        let mut scene = Scene::parse(&text, &self.trajectory.topology.source)?;
+        if let Some(adjust) = &self.adjust {
+            adjust(&mut scene)?;
+        }
+        Ok((scene, time))
+    }
+}
+
+fn describe(f: &Framing) -> String {
+    format!("a sphere of radius {:.3} Å about ({:.3}, {:.3}, {:.3})", f.reach, f.center.x, f.center.y, f.center.z)
+}
+
+/// Which frames to decode, in order.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Order {
+    /// These frames, then nothing.
+    List(Vec<usize>),
+    /// From this frame on, forever, wrapping after the last.
+    Loop(usize),
+}
+
+/// A decoded frame.
+#[derive(Debug)]
+pub struct Staged {
+    pub frame: usize,
+    pub time_ps: Option<f64>,
+    pub scene: Scene,
+    /// Wall time spent reading the frame and building its scene.
+    pub decode: Duration,
+}
+
+struct Request {
+    generation: u64,
+    order: Order,
+}
+
+/// A stager on its own thread, decoding ahead into a bounded queue.
+pub struct Prefetch {
+    requests: mpsc::Sender<Request>,
+    staged: mpsc::Receiver<(u64, Result<Staged, String>)>,
+    generation: u64,
+    len: usize,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Prefetch {
+    /// Starts decoding `order`, holding at most `depth` frames ready.
+    pub fn spawn(stager: Stager, order: Order, depth: usize) -> Result<Prefetch> {
+        let (requests, incoming) = mpsc::channel::<Request>();
+        let (outgoing, staged) = mpsc::sync_channel(depth.max(1));
+        let len = stager.len();
+        requests.send(Request { generation: 0, order }).ok();
+        let thread = std::thread::Builder::new().name("trajectory-decoder".into()).spawn(move || decode_loop(stager, &incoming, &outgoing))?;
+        Ok(Prefetch { requests, staged, generation: 0, len, thread: Some(thread) })
+    }
+
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Decodes `order` from now on; frames of earlier orders are dropped.
+    pub fn seek(&mut self, order: Order) {
+        self.generation += 1;
+        self.requests.send(Request { generation: self.generation, order }).ok();
+    }
+
+    /// The next frame of the current order, waiting for it; `None` once a
+    /// list is done.
+    pub fn wait(&mut self) -> Option<Result<Staged>> {
+        loop {
+            let (generation, staged) = self.staged.recv().ok()?;
+            if generation == self.generation {
+                return Some(staged.map_err(anyhow::Error::msg));
+            }
+        }
+    }
+
+    /// The next frame of the current order if one is ready.
+    pub fn try_next(&mut self) -> Option<Result<Staged>> {
+        loop {
+            let (generation, staged) = self.staged.try_recv().ok()?;
+            if generation == self.generation {
+                return Some(staged.map_err(anyhow::Error::msg));
+            }
+        }
+    }
+}
+
+impl Drop for Prefetch {
+    fn drop(&mut self) {
+        // Closing both channels ends the thread at its next send or wait.
+        let (tx, _) = mpsc::channel();
+        self.requests = tx;
+        let (_, rx) = mpsc::sync_channel(1);
+        self.staged = rx;
+        if let Some(t) = self.thread.take() {
+            t.join().ok();
+        }
+    }
+}
+
+fn decode_loop(mut stager: Stager, requests: &mpsc::Receiver<Request>, out: &mpsc::SyncSender<(u64, Result<Staged, String>)>) {
+    let Ok(mut current) = requests.recv() else { return };
+    let mut at = 0usize;
+    loop {
+        // The newest request wins.
+        while let Ok(r) = requests.try_recv() {
+            (current, at) = (r, 0);
+        }
+        let frame = match &current.order {
+            Order::List(frames) => frames.get(at).copied(),
+            Order::Loop(start) => Some((start + at) % stager.len().max(1)),
+        };
+        let Some(frame) = frame else {
+            // The list is done: wait for the next order.
+            match requests.recv() {
+                Ok(r) => (current, at) = (r, 0),
+                Err(_) => return,
+            }
+            continue;
+        };
+        at += 1;
+        let started = Instant::now();
+        let staged =
+            stager.scene(frame).map(|(scene, time_ps)| Staged { frame, time_ps, scene, decode: started.elapsed() }).map_err(|e| format!("{e:#}"));
+        let failed = staged.is_err();
+        if out.send((current.generation, staged)).is_err() {
+            return;
+        }
+        if failed {
+            // Nothing after a bad frame: wait for a new order.
+            match requests.recv() {
+                Ok(r) => (current, at) = (r, 0),
+                Err(_) => return,
+            }
+        }
+    }
+}

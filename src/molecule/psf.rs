@@ -1,0 +1,102 @@
+//! CHARMM/X-PLOR PSF topologies: the `!NATOM` section, one atom per line,
+//! whitespace-separated (the standard and the `EXT` layouts alike):
+//!
+//! ```text
+//! id  segment  residue  residue-name  atom-name  type  charge  mass  [imove ...]
+//! ```
+//!
+//! A PSF has no coordinates: it names the atoms of a trajectory (DCD) in
+//! the order of its frames. The element comes from the mass (the element
+//! whose standard atomic weight lies within 0.6 u of it), since CHARMM
+//! atom names and types are ambiguous (`CAL` is calcium, `CA` an alpha
+//! carbon); where no element is that close (hydrogen mass repartitioning
+//! puts 3 u on hydrogens), the name decides, as in GRO files. Sites of
+//! mass 0 (lone pairs, TIP4P's `OM`) are no atoms and are skipped. The
+//! segment is the chain. Positions are zero until a frame gives them.
+
+use glam::DVec3;
+
+use super::{Atom, Molecule, MoleculeError, elements, gro};
+
+/// The element of an atom of `mass` named `name` in `residue`, or `None`
+/// for a massless site.
+pub fn element(mass: f64, name: &str, residue: &str) -> Option<String> {
+    if mass <= 0.05 {
+        return None;
+    }
+    if let Some(symbol) = elements::by_mass(mass, 0.6) {
+        return Some(symbol.to_string());
+    }
+    gro::element(name, residue)
+}
+
+pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
+    let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(line), message };
+    let lines: Vec<&str> = text.lines().collect();
+    if !lines.first().is_some_and(|l| l.trim_start().starts_with("PSF")) {
+        return Err(err(1, "not a PSF file: it does not start with PSF".into()));
+    }
+    let Some(start) = lines.iter().position(|l| l.contains("!NATOM")) else {
+        return Err(err(lines.len().max(1), "the file ends here without a !NATOM section".into()));
+    };
+    let header = lines[start];
+    let count: usize = header
+        .split_whitespace()
+        .next()
+        .and_then(|t| t.parse().ok())
+        .ok_or_else(|| err(start + 1, format!("the atom count {:?} is not a whole number", header.trim())))?;
+    let mut atoms = Vec::with_capacity(count.min(lines.len()));
+    let (mut skipped, mut first_skipped) = (0usize, 0usize);
+    for k in 0..count {
+        let n = start + 2 + k;
+        let Some(line) = lines.get(n - 1) else {
+            return Err(err(lines.len(), format!("the file is cut short: !NATOM says {count} atoms, it holds {k}")));
+        };
+        let f: Vec<&str> = line.split_whitespace().collect();
+        if f.len() < 8 {
+            return Err(err(
+                n,
+                format!("this atom line has {} fields; a PSF atom needs 8 (id, segment, residue, name, atom, type, charge, mass)", f.len()),
+            ));
+        }
+        let mass = super::number(f[7], "the mass", file, n)?;
+        let Some(element) = element(mass, f[4], f[3]) else {
+            if skipped == 0 {
+                first_skipped = n;
+            }
+            skipped += 1;
+            continue;
+        };
+        atoms.push(Atom { element, position: DVec3::ZERO, chain: f[1].to_string(), line: n, site: k });
+    }
+    Ok(Molecule { source: file.into(), atoms, skipped_sites: (skipped > 0).then_some((skipped, first_skipped)), extra_models: 0, sites: count })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn elements_come_from_masses_then_names() {
+        assert_eq!(element(14.007, "N", "MET").as_deref(), Some("N"));
+        assert_eq!(element(1.008, "HT1", "MET").as_deref(), Some("H"));
+        assert_eq!(element(40.08, "CAL", "CAL").as_deref(), Some("Ca"));
+        assert_eq!(element(12.011, "CA", "ALA").as_deref(), Some("C"));
+        assert_eq!(element(3.024, "HA", "ALA").as_deref(), Some("H"), "repartitioned hydrogen mass: the name decides");
+        assert_eq!(element(0.0, "OM", "TIP4"), None);
+    }
+
+    #[test]
+    fn the_natom_section_gives_atoms_with_segments_as_chains() {
+        let t = "PSF\n\n       1 !NTITLE\n REMARKS x\n\n       3 !NATOM\n\
+                 \x20      1 4AKE     1        MET      N        NH3   -0.300000       14.0070           0\n\
+                 \x20      2 4AKE     1        MET      HT1      HC     0.330000        1.0080           0\n\
+                 \x20      3 SOLV     2        TIP4     OM       OM    -1.040000        0.0000           0\n\n";
+        let m = parse(t, "t.psf").unwrap();
+        assert_eq!(m.sites, 3);
+        assert_eq!(m.atoms.iter().map(|a| (a.element.as_str(), a.chain.as_str(), a.site)).collect::<Vec<_>>(), [("N", "4AKE", 0), ("H", "4AKE", 1)]);
+        assert_eq!(m.skipped_sites, Some((1, 9)));
+        let e = parse(&t[..t.len() - 60], "t.psf").unwrap_err();
+        assert!(e.to_string().starts_with("t.psf:9: this atom line has"), "{e}");
+    }
+}

@@ -1,0 +1,256 @@
+//! Trajectories through the binary (docs/trajectories.md): every frame of
+//! each test trajectory is read as MDAnalysis reads it, every frame
+//! renders, a batch frame equals the render of the scene file written for
+//! it byte for byte, files of several models play their models, and bad
+//! trajectories are one-line errors naming the file and the frame, with
+//! nothing written.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use common::*;
+
+fn data(name: &str) -> String {
+    repo_root().join("tests/data/trajectories").join(name).to_str().unwrap().to_string()
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(bin()).args(args).output().unwrap()
+}
+
+/// The rows of a CSV as numbers (empty fields as NaN), without its header.
+fn rows(text: &str) -> (Vec<String>, Vec<Vec<f64>>) {
+    let mut lines = text.lines();
+    let head = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines.map(|l| l.split(',').map(|v| v.parse().unwrap_or(f64::NAN)).collect()).collect();
+    (head, rows)
+}
+
+/// (name, topology, trajectory)
+const PAIRS: [(&str, &str, &str); 3] = [
+    ("YiiP_lipids", "YiiP_lipids.gro.gz", "YiiP_lipids.xtc"),
+    ("adk_oplsaa", "adk_oplsaa.gro.gz", "adk_oplsaa.xtc"),
+    ("adk_dims", "adk.psf", "adk_dims.dcd"),
+];
+
+#[test]
+fn every_frame_agrees_with_mdanalysis() {
+    for (name, top, traj) in PAIRS {
+        let reference = std::fs::read_to_string(data(&format!("reference/{name}.csv"))).unwrap();
+        let (head, want) = rows(&reference);
+        // The atoms MDAnalysis printed: 0, 1, n/2, n-1.
+        let atoms: Vec<String> = head.iter().filter(|h| h.starts_with('x')).map(|h| h[1..].to_string()).collect();
+        let out = run(&["frames", &data(top), &data(traj), "--atoms", &atoms.join(",")]);
+        assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+        let (got_head, got) = rows(&String::from_utf8_lossy(&out.stdout));
+        assert_eq!(got_head, head, "{name}: columns");
+        assert_eq!(got.len(), want.len(), "{name}: frame count");
+        for (g, w) in got.iter().zip(&want) {
+            assert_eq!(g[0], w[0], "{name}: frame number");
+            // Times to the microsecond of a picosecond as printed.
+            assert!((g[1] - w[1]).abs() <= 2e-6 * w[1].abs().max(1.0), "{name} frame {}: time {} against {}", w[0], g[1], w[1]);
+            assert_eq!(g[2], w[2], "{name} frame {}: atom count", w[0]);
+            // Positions: XTC holds 0.01 Å and DCD f32; both readers widen
+            // the same f32 values (MDAnalysis scales nm to Å in f32, so
+            // 1e-5 relative separates them at most).
+            for (c, (a, b)) in g[3..].iter().zip(&w[3..]).enumerate() {
+                assert!((a - b).abs() <= 2e-4, "{name} frame {} column {}: {a} against MDAnalysis {b}", w[0], head[3 + c]);
+            }
+        }
+    }
+}
+
+#[test]
+fn every_frame_of_every_trajectory_renders() {
+    for (name, top, traj) in PAIRS {
+        let dir = scratch(&format!("traj-all-{name}"));
+        let count = rows(&std::fs::read_to_string(data(&format!("reference/{name}.csv"))).unwrap()).1.len();
+        let pattern = dir.join("f_###.png");
+        let range = format!("0..{count}");
+        let out =
+            run(&["render", &data(top), &data(traj), "--frames", &range, "-o", pattern.to_str().unwrap(), "--size", "24x24", "--timeout", "300"]);
+        assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+        for k in 0..count {
+            let png = dir.join(format!("f_{k:03}.png"));
+            let img = image::open(&png).unwrap_or_else(|e| panic!("{}: {e}", png.display())).to_rgb8();
+            let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+            colours.sort_unstable();
+            colours.dedup();
+            assert!(colours.len() > 20, "{name} frame {k}: a nearly uniform image ({} colours)", colours.len());
+        }
+        // Past the last frame: refused before anything is rendered.
+        let past = format!("0..{}", count + 1);
+        let empty = scratch(&format!("traj-past-{name}"));
+        let out = run(&["render", &data(top), &data(traj), "--frames", &past, "-o", empty.join("f_###.png").to_str().unwrap(), "--size", "8x8"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(&format!("no frame {count}")), "{name}: {err}");
+        assert_eq!(std::fs::read_dir(&empty).unwrap().count(), 0, "{name}: a refused batch wrote something");
+    }
+}
+
+/// `render TOP TRAJ --frames` and `scene TOP TRAJ --frame n` + `render`.
+fn batch_equals_scene_files(name: &str, top: &str, traj: &str, frames: &[usize], extra: &[&str]) {
+    let dir = scratch(&format!("traj-same-{name}"));
+    let last = frames.iter().max().unwrap() + 1;
+    let range = format!("0..{last}");
+    let pattern = dir.join("f_###.png");
+    let mut args = vec!["render", top, traj, "--frames", &range, "-o", pattern.to_str().unwrap(), "--size", "48x48"];
+    args.extend(extra);
+    let out = run(&args);
+    assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+    for &k in frames {
+        let ron = dir.join(format!("s{k}.ron"));
+        let frame = k.to_string();
+        let mut args = vec!["scene", top, traj, "--frame", &frame, "-o", ron.to_str().unwrap()];
+        args.extend(extra.iter().filter(|a| !a.starts_with("--method")));
+        let out = run(&args);
+        assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+        let single = dir.join(format!("r{k}.png"));
+        let mut args = vec!["render", ron.to_str().unwrap(), "-o", single.to_str().unwrap(), "--size", "48x48"];
+        args.extend(extra.iter().filter(|a| a.starts_with("--method")));
+        let out = run(&args);
+        assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+        let a = std::fs::read(&single).unwrap();
+        let b = std::fs::read(dir.join(format!("f_{k:03}.png"))).unwrap();
+        assert!(a == b, "{name}: frame {k} of the batch differs from the render of its scene file");
+    }
+}
+
+#[test]
+fn a_batch_frame_equals_the_render_of_its_scene_file() {
+    batch_equals_scene_files("dcd", &data("adk.psf"), &data("adk_dims.dcd"), &[0, 5, 11], &[]);
+    batch_equals_scene_files("xtc", &data("YiiP_lipids.gro.gz"), &data("YiiP_lipids.xtc"), &[0, 4], &["--framing", "all", "--hydrogens"]);
+}
+
+/// A PDB of `models` models of three atoms, moved 1 Å along x per model.
+fn multi_model_pdb(models: usize) -> String {
+    let mut s = String::new();
+    for m in 0..models {
+        s.push_str(&format!("MODEL     {:>4}\n", m + 1));
+        for (i, (name, el, x)) in [(" N  ", "N", 0.0), (" CA ", "C", 1.45), (" C  ", "C", 2.9)].iter().enumerate() {
+            let x = x + m as f64;
+            s.push_str(&format!("ATOM  {:>5} {name} GLY A   1    {x:>8.3}{:>8.3}{:>8.3}  1.00  0.00          {el:>2}\n", i + 1, 0.0, 0.0));
+        }
+        s.push_str("ENDMDL\n");
+    }
+    s.push_str("END\n");
+    s
+}
+
+#[test]
+fn files_of_several_models_play_their_models() {
+    let dir = scratch("traj-models");
+    let pdb = dir.join("nmr.pdb");
+    std::fs::write(&pdb, multi_model_pdb(3)).unwrap();
+    let out = run(&["frames", pdb.to_str().unwrap(), "--atoms", "0"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (_, got) = rows(&String::from_utf8_lossy(&out.stdout));
+    assert_eq!(got.iter().map(|r| r[6]).collect::<Vec<_>>(), [0.0, 1.0, 2.0], "atom 0's x in models 1 to 3");
+    let out = run(&["render", pdb.to_str().unwrap(), "--frames", "0..3", "-o", dir.join("m_#.png").to_str().unwrap(), "--size", "16x16"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!((0..3).all(|k| dir.join(format!("m_{k}.png")).exists()));
+
+    // mmCIF: models by pdbx_PDB_model_num.
+    let mut cif = String::from(
+        "data_x\nloop_\n_atom_site.group_PDB\n_atom_site.id\n_atom_site.type_symbol\n_atom_site.label_atom_id\n\
+         _atom_site.Cartn_x\n_atom_site.Cartn_y\n_atom_site.Cartn_z\n_atom_site.pdbx_PDB_model_num\n",
+    );
+    for m in 1..=2 {
+        for (i, x) in [0.0, 1.5].iter().enumerate() {
+            cif.push_str(&format!("ATOM {} C C{i} {} 0.0 0.0 {m}\n", i + 1, x + f64::from(m) * 10.0));
+        }
+    }
+    let path = dir.join("two.cif");
+    std::fs::write(&path, cif).unwrap();
+    let out = run(&["frames", path.to_str().unwrap(), "--atoms", "1"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (_, got) = rows(&String::from_utf8_lossy(&out.stdout));
+    assert_eq!(got.iter().map(|r| r[6]).collect::<Vec<_>>(), [11.5, 21.5], "atom 1's x in models 1 and 2");
+
+    // A GRO of two frames, the second with a time in its title.
+    let frame = |t: f64, x: f64| {
+        format!(
+            "t= {t:.5}\n    2\n    1GLY      N    1   {x:.3}   0.000   0.000\n    1GLY     CA    2   {:.3}   0.000   0.000\n   1.0 1.0 1.0\n",
+            x + 0.15
+        )
+    };
+    let gro = dir.join("two.gro");
+    std::fs::write(&gro, frame(0.0, 0.0) + &frame(10.0, 1.0)).unwrap();
+    let out = run(&["frames", gro.to_str().unwrap(), "--atoms", "0"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (_, got) = rows(&String::from_utf8_lossy(&out.stdout));
+    assert_eq!(got.iter().map(|r| (r[1], r[6])).collect::<Vec<_>>(), [(0.0, 0.0), (10.0, 10.0)], "time and atom 0's x (Å)");
+
+    // One model: --frame beyond it is refused.
+    let one = dir.join("one.pdb");
+    std::fs::write(&one, multi_model_pdb(1)).unwrap();
+    let out = run(&["render", one.to_str().unwrap(), "--frame", "1", "-o", dir.join("x.png").to_str().unwrap()]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("holds one frame"));
+}
+
+/// A copy of `name` in `dir`, changed by `f`.
+fn damaged(dir: &Path, name: &str, f: impl FnOnce(&mut Vec<u8>)) -> PathBuf {
+    let mut bytes = std::fs::read(data(name)).unwrap();
+    f(&mut bytes);
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// `render TOP TRAJ --frames 0..N`: one line of stderr holding every part,
+/// a failure, and no file written but what frames came before the bad one.
+fn assert_bad(top: &str, traj: &Path, frames: usize, parts: &[&str]) -> usize {
+    let out_dir = traj.with_extension("out");
+    std::fs::create_dir_all(&out_dir).unwrap();
+    let range = format!("0..{frames}");
+    let out = run(&["render", top, traj.to_str().unwrap(), "--frames", &range, "-o", out_dir.join("f_###.png").to_str().unwrap(), "--size", "8x8"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    let last = err.trim().lines().last().unwrap_or("").to_string();
+    assert!(!out.status.success(), "accepted {}: {err}", traj.display());
+    assert!(last.starts_with("error: "), "{err}");
+    for p in parts {
+        assert!(last.contains(p), "{p:?} not in the error: {last}");
+    }
+    assert!(!err.contains("panicked"), "{err}");
+    let written: Vec<String> = std::fs::read_dir(&out_dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    assert!(written.iter().all(|n| n.ends_with(".png") || n == "frames.csv"), "temporary files left: {written:?}");
+    written.iter().filter(|n| n.ends_with(".png")).count()
+}
+
+#[test]
+fn bad_trajectories_are_one_line_errors_naming_file_and_frame() {
+    let dir = scratch("traj-bad");
+    let (yiip, adk) = (data("YiiP_lipids.gro.gz"), data("adk.psf"));
+    // XTC cut short inside its last frame: refused on opening.
+    let cut = damaged(&dir, "YiiP_lipids.xtc", |b| b.truncate(b.len() - 1000));
+    assert_eq!(assert_bad(&yiip, &cut, 5, &["YiiP_lipids.xtc", "frame 4", "cut short"]), 0);
+    // The atom count differs from the topology's.
+    let other = dir.join("other.xtc");
+    std::fs::copy(data("adk_oplsaa.xtc"), &other).unwrap();
+    assert_bad(&yiip, &other, 1, &["other.xtc", "frame 0", "47681 atoms", "43480"]);
+    // A corrupt frame: frame 2's compressed coordinates overwritten.
+    let corrupt = damaged(&dir, "adk_oplsaa.xtc", |b| {
+        let at = b.len() / 10 * 2 + 2000;
+        b[at..at + 4000].fill(0xff);
+    });
+    let before = assert_bad(&data("adk_oplsaa.gro.gz"), &corrupt, 10, &["adk_oplsaa.xtc", "frame"]);
+    assert!(before < 10, "frames after the corrupt one were written");
+    // DCD cut short inside frame 40, and one whose atom count differs.
+    let cut = damaged(&dir, "adk_dims.dcd", |b| b.truncate(b.len() - 58 * (3 * (8 + 4 * 3341)) - 100));
+    assert_bad(&adk, &cut, 2, &["adk_dims.dcd", "frame 39", "cut short"]);
+    assert_bad(&yiip, Path::new(&data("adk_dims.dcd")), 1, &["adk_dims.dcd", "3341 atoms", "43480"]);
+    // A multi-frame GRO cut short in its second frame.
+    let gro = dir.join("cut.gro");
+    let frame = "t= 0.0\n    2\n    1GLY      N    1   0.000   0.000   0.000\n    1GLY     CA    2   0.150   0.000   0.000\n   1.0 1.0 1.0\n";
+    std::fs::write(&gro, format!("{frame}{}", &frame[..60])).unwrap();
+    let out = run(&["frames", gro.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.trim().lines().count() == 1 && err.contains("cut.gro:") && err.contains("cut short"), "{err}");
+    // A PSF cannot stand alone, and a trajectory needs a known extension.
+    let out = run(&["render", &adk, "-o", dir.join("x.png").to_str().unwrap()]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("has no coordinates"));
+    let out = run(&["render", &adk, &data("adk.psf"), "-o", dir.join("x.png").to_str().unwrap()]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("not a trajectory"));
+}
