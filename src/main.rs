@@ -984,13 +984,14 @@ fn view(args: ViewArgs) -> Result<()> {
     );
     if let Some(p) = &s.playback {
         println!(
-            "trajectory: {} frames shown ({:.2} per second), {} decoded in {:.1} ms each on the decoder thread, marching {:.1} ms per shown frame; peak RSS {}",
+            "trajectory: {} frames shown ({:.2} per second), {} decoded in {:.1} ms each on the decoder thread, marching {:.1} ms per shown frame; peak RSS {}, RSS at the end {}",
             p.shown,
             p.shown as f64 / s.seconds.max(1e-9),
             p.decoded,
             p.decode_ms / p.decoded.max(1) as f64,
             p.march_ms / p.shown.max(1) as f64,
-            isomarch::stats::peak_rss_mib().map_or("n/a".into(), |m| format!("{m:.1} MiB"))
+            isomarch::stats::peak_rss_mib().map_or("n/a".into(), |m| format!("{m:.1} MiB")),
+            isomarch::stats::rss_mib().map_or("n/a".into(), |m| format!("{m:.1} MiB"))
         );
     }
     // No context: the window closed before the device was opened.

@@ -108,6 +108,9 @@ struct Player {
     /// The frame the decoder delivers next.
     expected: usize,
     stats: PlaybackStats,
+    /// Images presented when the frame shown was taken: with
+    /// `every_frame`, the next is taken once this one has been presented.
+    taken_at: u64,
 }
 
 impl Player {
@@ -421,6 +424,7 @@ impl App {
                     scene: options.scene.clone(),
                     expected: next,
                     stats: PlaybackStats { shown: 1, ..Default::default() },
+                    taken_at: 0,
                 })
             }
             None => None,
@@ -692,9 +696,11 @@ impl App {
         if let Some(p) = &mut self.player {
             let playing = self.camera.playing && p.len > 1;
             if p.every_frame && playing {
-                // The next frame, whatever the clock says; scene time follows.
+                // The next frame once this one has been presented, whatever
+                // the clock says; scene time follows.
                 let next = (p.frame + 1) % p.len;
-                if p.fetch(next, true)? {
+                if self.schedule.presented > p.taken_at && !p.done() && p.fetch(next, true)? {
+                    p.taken_at = self.schedule.presented;
                     self.camera.time = (p.stats.shown - 1) as f64 / self.options.fps;
                     self.schedule.dirty = true;
                 }
