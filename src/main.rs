@@ -219,11 +219,12 @@ impl MoleculeArgs {
             }
             return Ok(Scene::load(path)?);
         }
+        let started = std::time::Instant::now();
         let (scene, notes) = isomarch::molecule::build::load_scene(path, &self.options())?;
         for w in &notes.warnings {
             eprintln!("warning: {w}");
         }
-        eprintln!("{}", notes.summary);
+        eprintln!("{} (read and built in {:.2} s)", notes.summary, started.elapsed().as_secs_f64());
         Ok(scene)
     }
 }
@@ -254,6 +255,14 @@ impl Input {
     /// `trajectory`: frames where there is a trajectory or the molecule
     /// file holds more than one model or frame, else one scene.
     fn open(path: &Path, trajectory: Option<&Path>, molecule: &MoleculeArgs, march: &MarchArgs, play: &PlayArgs) -> Result<Input> {
+        match Input::frames(path, trajectory, molecule, march, play)? {
+            Some(stager) => Ok(Input::Frames(stager)),
+            None => Ok(Input::Still(march.load(path, molecule)?)),
+        }
+    }
+
+    /// The frames of `path` (and `trajectory`), or `None` where it holds one.
+    fn frames(path: &Path, trajectory: Option<&Path>, molecule: &MoleculeArgs, march: &MarchArgs, play: &PlayArgs) -> Result<Option<Stager>> {
         let psf = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("psf"));
         let multi = match trajectory {
             Some(_) => true,
@@ -269,7 +278,7 @@ impl Input {
             if play.framing != FramingRule::First {
                 bail!("--framing applies to trajectories and files of several models; {} holds one", path.display());
             }
-            return Ok(Input::Still(march.load(path, molecule)?));
+            return Ok(None);
         }
         let t = isomarch::molecule::trajectory::open(path, trajectory)?;
         let frames = t.len();
@@ -286,7 +295,7 @@ impl Input {
             if frames == 1 { "" } else { "s" },
             time.map_or(String::new(), |t| format!(", the first at {t} ps"))
         );
-        Ok(Input::Frames(stager))
+        Ok(Some(stager))
     }
 
     /// The scene of frame `frame` (0 where not given).
@@ -1075,13 +1084,13 @@ fn scene(args: SceneArgs) -> Result<()> {
     if !isomarch::molecule::is_molecule(&args.molecule) && args.trajectory.is_none() {
         bail!("{}: not a molecule file: expected .pdb, .ent, .cif, .mmcif or .gro, optionally .gz", args.molecule.display());
     }
-    let input = Input::open(&args.molecule, args.trajectory.as_deref(), &args.molecule_args, &MarchArgs::none(), &args.play)?;
-    let (text, source) = match input {
-        Input::Frames(mut stager) => {
+    let frames = Input::frames(&args.molecule, args.trajectory.as_deref(), &args.molecule_args, &MarchArgs::none(), &args.play)?;
+    let (text, source) = match frames {
+        Some(mut stager) => {
             let k = args.play.frame.unwrap_or(0);
             (stager.text(k)?.0, stager.trajectory.topology.source.clone())
         }
-        Input::Still(_) => {
+        None => {
             let m = isomarch::molecule::read(&args.molecule)?;
             let (text, notes) = isomarch::molecule::build::scene_text(&m, &args.molecule_args.options())?;
             for w in &notes.warnings {

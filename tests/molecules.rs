@@ -380,4 +380,36 @@ fn readers_choose_alternate_locations_per_site_and_read_one_atom_cifs_and_wrappe
     let (summary, scene) = scene_summary(&write(&dir, "wrap.gro", gro.as_bytes()));
     assert_eq!(scene.primitive_count(), 3, "{summary}");
     assert!(summary.ends_with("3 atoms, 1 chain"), "{summary}");
+
+    // GRO written at another precision (%10.5f: the decimal points 10 apart).
+    let precise = "precise\n    2\n    1ALA      N    1   0.12345   0.20000   0.30000\n    1ALA     CA    2   0.27345   0.20000   0.30000\n   1.0 1.0 1.0\n";
+    let (summary, scene) = scene_summary(&write(&dir, "precise.gro", precise.as_bytes()));
+    let xs: Vec<f64> =
+        scene.primitives().map(|p| if let isomarch::scene::Primitive::Point { center, .. } = p { center.x } else { f64::NAN }).collect();
+    assert_eq!(xs, [1.2345, 2.7345], "{summary}");
+}
+
+/// A structure of 165,175 atoms (the 6ZU5 ribosome) reads, indexes and
+/// renders, with its memory and the index's build time in `--stats`.
+#[test]
+fn a_ribosome_of_165175_atoms_renders_with_its_memory_in_the_statistics() {
+    let dir = scratch("mol-large");
+    let (png, stats) = (dir.join("6zu5.png"), dir.join("6zu5.json"));
+    let file = repo_root().join("tests/data/molecules/6ZU5.cif.gz");
+    let out = run(&["render", file.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "64x64", "--stats", stats.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("165175 atoms, 74 chains"), "{stderr}");
+    let s = json(&stats);
+    assert!(s["index"]["build_ns"].as_f64().is_some_and(|ns| ns > 0.0), "{s}");
+    assert!(s["index"]["entries"].as_u64().is_some_and(|n| n >= 165_175), "{s}");
+    let memory = &s["memory"];
+    assert!(memory["peak_rss_mib"].as_f64().is_some_and(|m| m > 50.0), "{memory}");
+    // Its primitives alone take 165,175 x 64 bytes on the GPU.
+    assert!(memory["gpu_allocated_mib"].as_f64().is_some_and(|m| m > 10.0), "{memory}");
+    let img = image::open(&png).unwrap().to_rgb8();
+    let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    assert!(colours.len() > 100, "a nearly uniform image: {} colours", colours.len());
 }
