@@ -107,7 +107,7 @@ pub struct Notes {
 
 /// A number rounded to six decimals, trailing zeros dropped (one kept
 /// after the point, as RON floats need), no negative zero.
-fn num(x: f64) -> String {
+pub(crate) fn num(x: f64) -> String {
     let s = format!("{x:.6}");
     let s = s.trim_end_matches('0');
     let s = if s.ends_with('.') { format!("{s}0") } else { s.to_string() };
@@ -150,6 +150,11 @@ impl Framing {
 /// for).
 pub fn balls_of(m: &Molecule, o: &MoleculeOptions) -> Vec<Ball> {
     kept(m, o).iter().map(|a| Ball { center: a.position, radius: radius(&a.element, o), color: None }).collect()
+}
+
+/// The sites of the atoms drawn, in the order of the scene's primitives.
+pub(crate) fn kept_sites(m: &Molecule, o: &MoleculeOptions) -> Vec<usize> {
+    kept(m, o).iter().map(|a| a.site).collect()
 }
 
 /// The atoms drawn: hydrogens left out unless asked for.

@@ -136,8 +136,9 @@ impl Trajectory {
         self.frames.is_empty()
     }
 
-    /// The topology's atoms at `frame`'s positions.
-    pub fn atoms_at(&self, frame: &Frame) -> Result<Vec<super::Atom>, MoleculeError> {
+    /// Checks that `frame` holds the topology's sites, with coordinates
+    /// for every atom.
+    pub fn check(&self, frame: &Frame) -> Result<(), MoleculeError> {
         if frame.positions.len() != self.topology.sites {
             return Err(fail(
                 &self.source,
@@ -145,17 +146,18 @@ impl Trajectory {
                 format!("it holds {} atoms where the topology {} has {}", frame.positions.len(), self.topology.source, self.topology.sites),
             ));
         }
+        if let Some(a) = self.topology.atoms.iter().find(|a| !frame.positions[a.site].is_finite()) {
+            return Err(fail(&self.source, Some(frame.index), format!("no coordinates for the atom of {} line {}", self.topology.source, a.line)));
+        }
+        Ok(())
+    }
+
+    /// The topology's atoms at `frame`'s positions.
+    pub fn atoms_at(&self, frame: &Frame) -> Result<Vec<super::Atom>, MoleculeError> {
+        self.check(frame)?;
         let mut atoms = self.topology.atoms.clone();
         for a in &mut atoms {
-            let p = frame.positions[a.site];
-            if !p.is_finite() {
-                return Err(fail(
-                    &self.source,
-                    Some(frame.index),
-                    format!("no coordinates for the atom of {} line {}", self.topology.source, a.line),
-                ));
-            }
-            a.position = p;
+            a.position = frame.positions[a.site];
         }
         Ok(atoms)
     }
