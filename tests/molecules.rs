@@ -382,7 +382,8 @@ fn readers_choose_alternate_locations_per_site_and_read_one_atom_cifs_and_wrappe
     assert!(summary.ends_with("3 atoms, 1 chain"), "{summary}");
 
     // GRO written at another precision (%10.5f: the decimal points 10 apart).
-    let precise = "precise\n    2\n    1ALA      N    1   0.12345   0.20000   0.30000\n    1ALA     CA    2   0.27345   0.20000   0.30000\n   1.0 1.0 1.0\n";
+    let precise =
+        "precise\n    2\n    1ALA      N    1   0.12345   0.20000   0.30000\n    1ALA     CA    2   0.27345   0.20000   0.30000\n   1.0 1.0 1.0\n";
     let (summary, scene) = scene_summary(&write(&dir, "precise.gro", precise.as_bytes()));
     let xs: Vec<f64> =
         scene.primitives().map(|p| if let isomarch::scene::Primitive::Point { center, .. } = p { center.x } else { f64::NAN }).collect();

@@ -247,7 +247,10 @@ fn bad_trajectories_are_one_line_errors_naming_file_and_frame() {
     std::fs::write(&gro, format!("{frame}{}", &frame[..60])).unwrap();
     let out = run(&["frames", gro.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.trim().lines().count() == 1 && err.contains("cut.gro:") && err.contains("cut short"), "{err}");
+    assert!(
+        !out.status.success() && err.trim().lines().count() == 1 && err.contains("cut.gro:") && err.contains(": frame 1: the file is cut short"),
+        "{err}"
+    );
     // A PSF cannot stand alone, and a trajectory needs a known extension.
     let out = run(&["render", &adk, "-o", dir.join("x.png").to_str().unwrap()]);
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("has no coordinates"));

@@ -354,7 +354,25 @@ impl Frames for TextFrames {
     }
 
     fn read(&mut self, index: usize) -> Result<Frame, MoleculeError> {
-        let (m, time_ps) = match self.format {
+        let in_frame = |mut e: MoleculeError| {
+            if !e.message.starts_with("frame ") {
+                e.message = format!("frame {index}: {}", e.message);
+            }
+            e
+        };
+        let (m, time_ps) = self.parse(index).map_err(in_frame)?;
+        let mut positions = vec![DVec3::NAN; m.sites];
+        for a in &m.atoms {
+            positions[a.site] = a.position;
+        }
+        Ok(Frame { index, time_ps, positions })
+    }
+}
+
+impl TextFrames {
+    /// The molecule of frame `index`, and its time.
+    fn parse(&mut self, index: usize) -> Result<(Molecule, Option<f64>), MoleculeError> {
+        Ok(match self.format {
             Format::Cif => {
                 let bytes = std::fs::read(&self.path).map_err(|e| fail(&self.file, Some(index), format!("cannot read: {e}")))?;
                 let text = super::text_of(bytes, &self.file)?;
@@ -372,12 +390,7 @@ impl Frames for TextFrames {
                     _ => (super::pdb::parse_at(&text, &self.file, before)?, None),
                 }
             }
-        };
-        let mut positions = vec![DVec3::NAN; m.sites];
-        for a in &m.atoms {
-            positions[a.site] = a.position;
-        }
-        Ok(Frame { index, time_ps, positions })
+        })
     }
 }
 
