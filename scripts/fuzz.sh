@@ -16,7 +16,7 @@ cd "$ISOMARCH_ROOT"
 seconds="${1:?usage: bash scripts/fuzz.sh SECONDS [TARGET...]}"
 shift
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(scene pdb cif gro gzip)
+[ ${#targets[@]} -gt 0 ] || targets=(scene pdb cif gro gzip psf xtc dcd)
 export RUSTC_BOOTSTRAP=1
 fuzz_dir="$HOME/.cache/isomarch-fuzz-target"
 mkdir -p fuzz/artifacts

@@ -24,7 +24,7 @@ import numpy as np
 from . import _native
 from ._native import IsomarchError
 
-__all__ = ["Scene", "Renderer", "Image", "IsomarchError", "element_radius", "element_color", "to_dataframe"]
+__all__ = ["Scene", "Trajectory", "Renderer", "Image", "IsomarchError", "element_radius", "element_color", "to_dataframe"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -181,6 +181,69 @@ class Image:
 
     def __repr__(self) -> str:
         return f"<isomarch.Image {self.width}x{self.height} {self.method} on {self.device}: {self.stats['steps_per_ray']:.2f} steps/ray>"
+
+
+class Trajectory:
+    """The frames of a trajectory as scenes: a topology (PDB, mmCIF, GRO,
+    optionally gzipped, or PSF) and its trajectory (XTC, DCD), or a file of
+    several models or frames alone (docs/trajectories.md).
+
+    Frame ``k`` is the scene ``isomarch scene TOPOLOGY TRAJECTORY --frame k``
+    writes, with the camera framed once (``framing="first"``: on the first
+    frame's atoms; ``"all"``: on every frame's). Frames are read when asked
+    for, one at a time: ``len(t)``, ``t[k]``, ``for scene in t``.
+    """
+
+    def __init__(
+        self,
+        topology: PathLike,
+        trajectory: Optional[PathLike] = None,
+        *,
+        framing: str = "first",
+        hydrogens: bool = False,
+        sharpness: float = 2.0,
+        radius_scale: float = 1.0,
+        iso: float = 1.0,
+        coloring: str = "element",
+        turntable: Optional[float] = None,
+    ):
+        self._native, warnings, summary = _native.trajectory_open(
+            os.fspath(topology),
+            None if trajectory is None else os.fspath(trajectory),
+            framing,
+            hydrogens,
+            float(sharpness),
+            float(radius_scale),
+            float(iso),
+            coloring,
+            turntable,
+        )
+        #: Warnings from reading the topology.
+        self.warnings = list(warnings)
+        #: What the first frame became: atoms used and left out.
+        self.summary = summary
+
+    def __len__(self) -> int:
+        return len(self._native)
+
+    def __getitem__(self, k: int) -> Scene:
+        n = len(self)
+        if k < 0:
+            k += n
+        if not 0 <= k < n:
+            raise IndexError(f"frame {k} of a trajectory of {n}")
+        native, time_ps = self._native.scene(k)
+        scene = Scene(native, self.warnings, self.summary)
+        #: The frame's simulation time in picoseconds, where the file gives one.
+        scene.time_ps = time_ps
+        return scene
+
+    def __iter__(self):
+        for k in range(len(self)):
+            yield self[k]
+
+    def __repr__(self) -> str:
+        return f"Trajectory({self._native.source()!r}, {len(self)} frames)"
 
 
 class Renderer:

@@ -14,6 +14,23 @@ class NativeScene:
     source: str
     animated: bool
 
+class NativeTrajectory:
+    def __len__(self) -> int: ...
+    def source(self) -> str: ...
+    def scene(self, k: int) -> Tuple[NativeScene, Optional[float]]: ...
+
+def trajectory_open(
+    topology: str,
+    trajectory: Optional[str],
+    framing: str,
+    hydrogens: bool,
+    sharpness: float,
+    radius_scale: float,
+    iso: float,
+    coloring: str,
+    turntable: Optional[float],
+) -> Tuple[NativeTrajectory, list, str]: ...
+
 class NativeRenderer:
     device: str
     def __init__(self, device: Optional[str] = None, timeout: float = 600.0) -> None: ...

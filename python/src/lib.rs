@@ -302,11 +302,73 @@ impl NativeRenderer {
     }
 }
 
+/// A trajectory's frames as scenes (`isomarch render TOPOLOGY TRAJECTORY`'s).
+#[pyclass]
+struct NativeTrajectory {
+    stager: std::sync::Mutex<isomarch::molecule::playback::Stager>,
+    len: usize,
+    source: String,
+}
+
+#[pymethods]
+impl NativeTrajectory {
+    fn __len__(&self) -> usize {
+        self.len
+    }
+
+    fn source(&self) -> String {
+        self.source.clone()
+    }
+
+    /// Frame `k`'s scene and simulation time (ps, or None).
+    fn scene(&self, py: Python<'_>, k: usize) -> PyResult<(NativeScene, Option<f64>)> {
+        let stager = &self.stager;
+        let (scene, time) = py.detach(|| stager.lock().map_err(|_| anyhow::anyhow!("the trajectory's lock is poisoned"))?.scene(k)).map_err(raise)?;
+        Ok((NativeScene { scene }, time))
+    }
+}
+
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (topology, trajectory, framing, hydrogens, sharpness, radius_scale, iso, coloring, turntable))]
+fn trajectory_open(
+    py: Python<'_>,
+    topology: PathBuf,
+    trajectory: Option<PathBuf>,
+    framing: &str,
+    hydrogens: bool,
+    sharpness: f64,
+    radius_scale: f64,
+    iso: f64,
+    coloring: &str,
+    turntable: Option<f64>,
+) -> PyResult<(NativeTrajectory, Vec<String>, String)> {
+    use isomarch::molecule::playback::{FramingRule, Stager};
+    let o = molecule_options(hydrogens, sharpness, radius_scale, iso, coloring, turntable)?;
+    let rule = match framing {
+        "first" => FramingRule::First,
+        "all" => FramingRule::All,
+        other => return Err(IsomarchError::new_err(format!("framing must be \"first\" or \"all\", got {other:?}"))),
+    };
+    let (stager, notes) = py
+        .detach(|| -> anyhow::Result<_> {
+            let t = isomarch::molecule::trajectory::open(&topology, trajectory.as_deref())?;
+            let mut stager = Stager::new(t, o, rule)?;
+            let (_, _, notes) = stager.text(0)?;
+            Ok((stager, notes))
+        })
+        .map_err(raise)?;
+    let (len, source) = (stager.len(), stager.trajectory.source.clone());
+    Ok((NativeTrajectory { stager: std::sync::Mutex::new(stager), len, source }, notes.warnings, notes.summary))
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("IsomarchError", m.py().get_type::<IsomarchError>())?;
     m.add_class::<NativeScene>()?;
     m.add_class::<NativeRenderer>()?;
+    m.add_class::<NativeTrajectory>()?;
+    m.add_function(wrap_pyfunction!(trajectory_open, m)?)?;
     m.add_function(wrap_pyfunction!(scene_load, m)?)?;
     m.add_function(wrap_pyfunction!(scene_from_molecule, m)?)?;
     m.add_function(wrap_pyfunction!(scene_from_atoms, m)?)?;

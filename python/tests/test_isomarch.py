@@ -202,3 +202,20 @@ def test_tradeoff_rows_equal_the_clis_csv(renderer, tmp_path):
             assert abs(mine[key] - float(theirs[key])) <= half, (key, mine, theirs)
         if mine["max_steps"] == 1000:
             assert mine["miss_rate"] == 0 and mine["false_hit_rate"] == 0, mine
+
+
+def test_a_trajectory_frame_renders_as_the_clis_batch_frame(renderer, tmp_path):
+    top, traj = ROOT / "tests/data/trajectories/adk.psf", ROOT / "tests/data/trajectories/adk_dims.dcd"
+    frames = isomarch.Trajectory(top, traj, framing="all")
+    assert len(frames) == 98 and "1656 atoms" in frames.summary
+    assert abs(frames[0].time_ps - 1.0) < 1e-6 and abs(frames[-1].time_ps - 98.0) < 1e-5
+    cli("render", top, traj, "--framing", "all", "--frames", "0..3", "-o", tmp_path / "f_#.png", "--size", "40x40")
+    for k, scene in enumerate(frames):
+        if k == 3:
+            break
+        image = renderer.render(scene, size=(40, 40))
+        assert image.png() == (tmp_path / f"f_{k}.png").read_bytes(), f"frame {k}"
+    with pytest.raises(IndexError):
+        frames[98]
+    with pytest.raises(isomarch.IsomarchError, match="atoms where the topology has 3341"):
+        isomarch.Trajectory(top, ROOT / "tests/data/trajectories/YiiP_lipids.xtc")

@@ -108,8 +108,8 @@ pub fn open(topology: &Path, trajectory: Option<&Path>) -> Result<Trajectory, Mo
         return Err(fail(&top.source, None, "a PSF topology has no coordinates: give its trajectory (DCD, XTC) after it"));
     }
     let frames: Box<dyn Frames> = match kind_of(path) {
-        Some(Kind::Xtc) => Box::new(xtc::XtcFrames::open(path, top.sites)?),
-        Some(Kind::Dcd) => Box::new(dcd::DcdFrames::open(path, top.sites)?),
+        Some(Kind::Xtc) => Box::new(xtc::XtcFrames::open(path, Some(top.sites))?),
+        Some(Kind::Dcd) => Box::new(dcd::DcdFrames::open(path, Some(top.sites))?),
         Some(Kind::Text(format)) => Box::new(TextFrames::open(path, format)?),
         None => {
             return Err(fail(
@@ -415,7 +415,9 @@ pub mod xtc {
     }
 
     impl XtcFrames {
-        pub fn open(path: &Path, sites: usize) -> Result<XtcFrames, MoleculeError> {
+        /// Opens `path` for a topology of `sites` atoms (`None`: as many
+        /// as its first frame holds).
+        pub fn open(path: &Path, sites: Option<usize>) -> Result<XtcFrames, MoleculeError> {
             let file = path.display().to_string();
             let length = std::fs::metadata(path).map_err(|e| fail(&file, None, format!("cannot read: {e}")))?.len();
             let mut reader = molly::XTCReader::open(path).map_err(|e| fail(&file, None, format!("cannot read: {e}")))?;
@@ -437,6 +439,7 @@ pub mod xtc {
             offsets.extend(&ends[..ends.len() - 1]);
             let mut x = XtcFrames { reader, file, offsets: offsets.into(), atoms: 0, frame: molly::Frame::default() };
             let header = x.header(0)?;
+            let sites = sites.unwrap_or(header);
             if header != sites {
                 return Err(fail(&x.file, Some(0), format!("it holds {header} atoms where the topology has {sites}")));
             }
@@ -460,6 +463,12 @@ pub mod xtc {
         }
 
         fn read(&mut self, index: usize) -> Result<Frame, MoleculeError> {
+            // The atom count first: molly sizes its buffers by it, and a
+            // corrupt count would ask for any amount of memory.
+            let atoms = self.header(index)?;
+            if atoms != self.atoms {
+                return Err(fail(&self.file, Some(index), format!("it holds {atoms} atoms where frame 0 holds {}", self.atoms)));
+            }
             let offset = self.offsets[index];
             let (reader, frame) = (&mut self.reader, &mut self.frame);
             guarded(|| reader.read_frame_at_offset::<false>(frame, offset, &molly::selection::AtomSelection::All))
@@ -507,7 +516,9 @@ pub mod dcd {
     }
 
     impl DcdFrames {
-        pub fn open(path: &Path, sites: usize) -> Result<DcdFrames, MoleculeError> {
+        /// Opens `path` for a topology of `sites` atoms (`None`: as many
+        /// as its header says).
+        pub fn open(path: &Path, sites: Option<usize>) -> Result<DcdFrames, MoleculeError> {
             let file = path.display().to_string();
             let bad = |m: &str| fail(&file, None, format!("not a readable DCD file: {m}"));
             let mut f = File::open(path).map_err(|e| fail(&file, None, format!("cannot read: {e}")))?;
@@ -554,6 +565,7 @@ pub mod dcd {
                 return Err(bad("no atom count after the title"));
             }
             let atoms = atoms as usize;
+            let sites = sites.unwrap_or(atoms);
             if atoms != sites {
                 return Err(fail(&file, None, format!("it holds {atoms} atoms where the topology has {sites}")));
             }
