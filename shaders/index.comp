@@ -13,7 +13,7 @@
 //             sums add up in the same order every frame (longer lists keep
 //             the order the atomics gave them)
 // No invocation loops more than MAX_CELLS_PER_PRIMITIVE, SCAN_BLOCK,
-// SORT_MAX² or (lists / SCAN_BLOCK) times, all far below lavapipe's
+// SORT_MAX·(SORT_MAX + 1)/2 or (lists / SCAN_BLOCK) times, all below lavapipe's
 // per-invocation cap; the host keeps lists / SCAN_BLOCK below it.
 //
 // cell_start[list] ends as the first entry of the list, with
@@ -36,7 +36,9 @@ layout(push_constant) uniform IndexPush {
 } push;
 
 // (SCAN_BLOCK comes from src/layout.rs.)
-const uint SORT_MAX = 64u;
+// Insertion sort's worst case for 255 entries is 254 + 254·255/2 = 32,639
+// loop turns, half lavapipe's cap; molecule lists hold up to about 200.
+const uint SORT_MAX = 255u;
 
 uint list_count() {
     return globals.sizes.y * grid_lists_per_group();
