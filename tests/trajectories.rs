@@ -257,3 +257,38 @@ fn bad_trajectories_are_one_line_errors_naming_file_and_frame() {
     let out = run(&["render", &adk, &data("adk.psf"), "-o", dir.join("x.png").to_str().unwrap()]);
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("not a trajectory"));
 }
+
+#[test]
+fn shards_split_a_trajectorys_frames_and_resume() {
+    let dir = scratch("traj-shards");
+    let pattern = dir.join("f_##.png");
+    let (top, traj) = (data("adk.psf"), data("adk_dims.dcd"));
+    for shard in ["0/2", "1/2"] {
+        let csv = dir.join(format!("shard{}.csv", &shard[..1]));
+        let out = run(&[
+            "render",
+            &top,
+            &traj,
+            "--frames",
+            "10..16",
+            "--shard",
+            shard,
+            "-o",
+            pattern.to_str().unwrap(),
+            "--size",
+            "16x16",
+            "--csv",
+            csv.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    let mut names: Vec<String> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).filter(|n| n.ends_with(".png")).collect();
+    names.sort();
+    assert_eq!(names, (10..16).map(|k| format!("f_{k}.png")).collect::<Vec<_>>(), "each frame once");
+    // A frame lost is rendered again; the others are kept.
+    std::fs::remove_file(dir.join("f_13.png")).unwrap();
+    let out = run(&["render", &top, &traj, "--frames", "10..16", "--skip-existing", "-o", pattern.to_str().unwrap(), "--size", "16x16"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && err.contains("1 frames rendered, 5 kept from disk"), "{err}");
+}
