@@ -219,7 +219,6 @@ pub fn run(
     use anyhow::Context as _;
 
     use crate::output::{FileFormat, shaded_bytes, write_atomic};
-    use crate::render::rays::camera_rays;
     use crate::render::{MarchOptions, Renderer};
 
     let frames: Vec<u64> = (range.start..range.end).filter(|&f| shard.contains(f)).collect();
@@ -262,7 +261,8 @@ pub fn run(
         }
         None => None,
     };
-    let (mut rays, mut pixels) = camera_rays(&still.camera, job.width, job.height, &still.bounds);
+    // The scene the renderer holds (its camera makes the rays).
+    let mut shown = still.clone();
     // Posing moves primitives and the camera, not the marching settings.
     let options = MarchOptions::for_scene(&still);
     // Whether the index was built for the frame about to be marched: the
@@ -278,21 +278,17 @@ pub fn run(
         if let Some(prefetch) = frames.as_mut() {
             let staged = prefetch.wait().ok_or_else(|| anyhow::anyhow!("the trajectory's decoder stopped before frame {frame}"))??;
             anyhow::ensure!(staged.frame as u64 == frame, "the decoder gave frame {} for frame {frame}", staged.frame);
-            let posed = staged.scene.at_time(frame as f64 / fps).recentred_on_camera();
-            renderer.set_scene(&posed)?;
+            shown = staged.scene.at_time(frame as f64 / fps).recentred_on_camera();
+            renderer.set_scene(&shown)?;
             index_built = true;
-            (rays, pixels) = camera_rays(&posed.camera, job.width, job.height, &posed.bounds);
         } else if animated {
             // The scene at this frame's time: primitives, camera, bounds.
-            let posed = job.scene.at_time(frame as f64 / fps).recentred_on_camera();
-            renderer.set_scene(&posed)?;
+            shown = job.scene.at_time(frame as f64 / fps).recentred_on_camera();
+            renderer.set_scene(&shown)?;
             index_built = true;
-            (rays, pixels) = camera_rays(&posed.camera, job.width, job.height, &posed.bounds);
         }
-        let out = crate::render::offscreen::march_frame(&mut renderer, job.method, options, &rays)?;
-        let image = crate::output::Frame::from_results(job.width, job.height, &out.results, &pixels);
+        let (image, stats) = crate::render::offscreen::march_image(&mut renderer, job.method, options, &shown, (job.width, job.height), job.samples)?;
         write_atomic(&path, &shaded_bytes(&image, FileFormat::of("-o", &path, FileFormat::IMAGE)?, &[])?)?;
-        let stats = crate::render::offscreen::pixel_stats(&out, &pixels);
         // GPU time of this frame's index build: 0 where a static scene
         // reuses the first frame's, empty without an index (or without
         // GPU timestamps).

@@ -507,6 +507,13 @@ struct RenderArgs {
     /// Write statistics (steps, evaluations, GPU time) as JSON.
     #[arg(long, value_name = "JSON")]
     stats: Option<PathBuf>,
+    /// Anti-aliasing: N rays per pixel at sub-pixel positions (a Latin
+    /// hypercube in each pixel, so a straight vertical or horizontal edge
+    /// is covered within 1/N; jittered and deterministic), their colours
+    /// averaged in linear light. Steps in the heatmap and statistics count
+    /// every ray; depth and normal AOVs are the first sample's.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    samples: u32,
     #[command(flatten)]
     batch: BatchArgs,
     #[command(flatten)]
@@ -808,6 +815,13 @@ fn check_fps(fps: f64) -> Result<f64> {
 }
 
 /// `--time` of `render` and `view`.
+fn check_samples(n: u32) -> Result<u32> {
+    if !(1..=4096).contains(&n) {
+        bail!("--samples must be 1 to 4096 rays per pixel, got {n}");
+    }
+    Ok(n)
+}
+
 fn check_time(time: f64) -> Result<f64> {
     if !time.is_finite() {
         bail!("--time must be a finite number of seconds, got {time}");
@@ -868,6 +882,7 @@ fn render(args: RenderArgs) -> Result<()> {
         aovs: args.aov,
         aov_output: args.aov_output,
         stats: args.stats,
+        samples: check_samples(args.samples)?,
         ..RenderJob::new(scene, method, size, args.output, args.gpu.timeout()?)
     };
     // Every output's format from its extension, before any work.
@@ -927,7 +942,7 @@ fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Sc
     .context("installing the signal handler")?;
     let gpu = args.gpu.open()?;
     let method = scene.marching.method;
-    let job = RenderJob::new(scene, method, size, output.clone(), gpu.timeout);
+    let job = RenderJob { samples: check_samples(args.samples)?, ..RenderJob::new(scene, method, size, output.clone(), gpu.timeout) };
     let s = isomarch::batch::run(&gpu.ctx, &job, stager, &pattern, range, fps, shard, batch.skip_existing, &csv, &stop)?;
     eprintln!(
         "{} frames rendered, {} kept from disk (shard {}/{}); statistics in {}",

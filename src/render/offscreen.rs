@@ -8,7 +8,7 @@ use anyhow::Result;
 use serde::Serialize;
 
 use super::index::IndexStats;
-use super::rays::camera_rays;
+use super::rays::{camera_rays_through, subpixel};
 use super::{MarchOptions, Renderer};
 use crate::gpu::Context;
 use crate::method::Method;
@@ -30,13 +30,28 @@ pub struct RenderJob {
     pub aov_output: Option<PathBuf>,
     pub stats: Option<PathBuf>,
     pub timeout: Duration,
+    /// Anti-aliasing: rays per pixel, averaged ([`march_image`]).
+    pub samples: u32,
 }
 
 impl RenderJob {
     /// A job that writes only the shaded image to `output`, at `width` x
     /// `height` with `method`, within `timeout`.
     pub fn new(scene: Scene, method: Method, (width, height): (u32, u32), output: PathBuf, timeout: Duration) -> RenderJob {
-        RenderJob { scene, method, width, height, output, heatmap: None, steps_max: None, aovs: vec![], aov_output: None, stats: None, timeout }
+        RenderJob {
+            scene,
+            method,
+            width,
+            height,
+            output,
+            heatmap: None,
+            steps_max: None,
+            aovs: vec![],
+            aov_output: None,
+            stats: None,
+            timeout,
+            samples: 1,
+        }
     }
 }
 
@@ -121,10 +136,66 @@ pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Fram
     let scene = job.scene.recentred_on_camera();
     let mut renderer = Renderer::new(ctx, &scene)?;
     renderer.timeout = job.timeout;
-    let (rays, pixels) = camera_rays(&scene.camera, job.width, job.height, &scene.bounds);
-    let out = march_frame(&mut renderer, job.method, MarchOptions::for_scene(&scene), &rays)?;
+    let (frame, stats) = march_image(&mut renderer, job.method, MarchOptions::for_scene(&scene), &scene, (job.width, job.height), job.samples)?;
     let memory = Memory::now(ctx);
-    Ok((Frame::from_results(job.width, job.height, &out.results, &pixels), pixel_stats(&out, &pixels), renderer.index_stats(), memory))
+    Ok((frame, stats, renderer.index_stats(), memory))
+}
+
+/// The seed of the sub-pixel samples' permutations ([`subpixel`]).
+pub const SAMPLE_SEED: u32 = 1;
+
+/// Marches `scene`'s camera view (the scene the renderer holds, posed and
+/// recentred) at `width` x `height` with `samples` rays per pixel: one
+/// through each pixel's centre, or more at [`subpixel`] positions, whose
+/// colours are averaged in linear light (a box filter over the pixel).
+/// Steps, evaluations and turns are summed over a pixel's samples; its
+/// depth and normal are its first sample's. Statistics count every ray.
+pub fn march_image(
+    renderer: &mut Renderer,
+    method: Method,
+    options: MarchOptions,
+    scene: &Scene,
+    (width, height): (u32, u32),
+    samples: u32,
+) -> Result<(Frame, MarchStats)> {
+    let n = samples.max(1);
+    let mut image: Option<Frame> = None;
+    let mut sums = vec![[0f64; 3]; (width * height) as usize];
+    let mut marched = Vec::new();
+    let mut gpu_ns = Some(0.0);
+    for s in 0..n {
+        let (rays, pixels) = camera_rays_through(&scene.camera, width, height, &scene.bounds, |p| subpixel(p, s, n, SAMPLE_SEED));
+        let out = march_frame(renderer, method, options, &rays)?;
+        gpu_ns = gpu_ns.zip(out.gpu_ns).map(|(a, b)| a + b);
+        let frame = Frame::from_results(width, height, &out.results, &pixels);
+        for (sum, p) in sums.iter_mut().zip(&frame.pixels) {
+            for (s, c) in sum.iter_mut().zip(p.color) {
+                *s += f64::from(c);
+            }
+        }
+        marched.extend(out.results.iter().zip(&pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| *r));
+        match &mut image {
+            None => image = Some(frame),
+            Some(first) => {
+                for (a, b) in first.pixels.iter_mut().zip(&frame.pixels) {
+                    for k in 0..3 {
+                        a.counts[k] += b.counts[k];
+                    }
+                    a.crossings[1] += b.crossings[1];
+                    a.crossings[2] += b.crossings[2];
+                }
+            }
+        }
+    }
+    let mut image = image.unwrap_or_else(|| Frame::from_results(width, height, &[], &[]));
+    if n > 1 {
+        for (p, sum) in image.pixels.iter_mut().zip(&sums) {
+            for (c, s) in p.color.iter_mut().zip(sum) {
+                *c = (s / f64::from(n)) as f32;
+            }
+        }
+    }
+    Ok((image, MarchStats::of(marched.iter(), gpu_ns)))
 }
 
 /// Statistics of a frame's march over its pixels (not the padding rays

@@ -46,8 +46,82 @@ pub fn clipped_ray(o: DVec3, d: DVec3, bounds: &Aabb) -> GpuRay {
 
 /// Camera rays for a `width` x `height` image in tile order, and for each
 /// ray its pixel index (`y * width + x`), `None` for padding rays of partial
-/// tiles.
+/// tiles. Each ray goes through its pixel's centre.
 pub fn camera_rays(cam: &Camera, width: u32, height: u32, bounds: &Aabb) -> (Vec<GpuRay>, Vec<Option<u32>>) {
+    camera_rays_through(cam, width, height, bounds, |_| (0.5, 0.5))
+}
+
+/// Kensler's hashed permutation ("Correlated Multi-Jittered Sampling",
+/// Pixar technical memo 13-01, 2013): `i`'s place in a permutation of
+/// `0..l` chosen by `p`, for any `l`, by cycle walking.
+fn permute(mut i: u32, l: u32, p: u32) -> u32 {
+    let mut w = l - 1;
+    w |= w >> 1;
+    w |= w >> 2;
+    w |= w >> 4;
+    w |= w >> 8;
+    w |= w >> 16;
+    loop {
+        i ^= p;
+        i = i.wrapping_mul(0xe170_893d);
+        i ^= p >> 16;
+        i ^= (i & w) >> 4;
+        i ^= p >> 8;
+        i = i.wrapping_mul(0x0929_eb3f);
+        i ^= p >> 23;
+        i ^= (i & w) >> 1;
+        i = i.wrapping_mul(1 | p >> 27);
+        i = i.wrapping_mul(0x6935_fa69);
+        i ^= (i & w) >> 11;
+        i = i.wrapping_mul(0x74dc_b303);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0x9e50_1cc3);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0xc860_a3df);
+        i &= w;
+        i ^= i >> 5;
+        if i < l {
+            return i.wrapping_add(p) % l;
+        }
+    }
+}
+
+/// Kensler's hashed float in [0, 1).
+fn hashed_unit(mut i: u32, p: u32) -> f64 {
+    i ^= p;
+    i ^= i >> 17;
+    i ^= i >> 10;
+    i = i.wrapping_mul(0xb365_34e5);
+    i ^= i >> 12;
+    i ^= i >> 21;
+    i = i.wrapping_mul(0x93fc_4795);
+    i ^= 0xdf6e_307f;
+    i ^= i >> 17;
+    i = i.wrapping_mul(1 | p >> 18);
+    f64::from(i) / 4_294_967_296.0
+}
+
+/// Sub-pixel position `s` of `n` in pixel `pixel` (in [0, 1)², from the
+/// pixel's top-left corner): a Latin hypercube, so each of the pixel's `n`
+/// columns and each of its `n` rows holds exactly one sample (a straight
+/// vertical or horizontal edge is then covered within 1/n), jittered
+/// within its cell, with a permutation of its own for every pixel (hashed
+/// from the pixel and `seed`), so neighbouring pixels do not repeat one
+/// pattern. Deterministic; one sample is the pixel's centre.
+pub fn subpixel(pixel: u32, s: u32, n: u32, seed: u32) -> (f64, f64) {
+    if n <= 1 {
+        return (0.5, 0.5);
+    }
+    let p = pixel.wrapping_mul(0x9e37_79b9) ^ seed.wrapping_mul(0x85eb_ca6b);
+    let x = permute(s, n, p.wrapping_mul(0xa511_e9b3));
+    let y = permute(s, n, p.wrapping_mul(0x63d8_3595));
+    let (jx, jy) = (hashed_unit(s, p.wrapping_mul(0xa399_d265)), hashed_unit(s, p.wrapping_mul(0x711a_d6a5)));
+    ((f64::from(x) + jx) / f64::from(n), (f64::from(y) + jy) / f64::from(n))
+}
+
+/// [`camera_rays`] through the point `at(pixel)` of each pixel (from its
+/// top-left corner, in pixels).
+pub fn camera_rays_through(cam: &Camera, width: u32, height: u32, bounds: &Aabb, at: impl Fn(u32) -> (f64, f64)) -> (Vec<GpuRay>, Vec<Option<u32>>) {
     let forward = (cam.target - cam.eye).normalize();
     let right = forward.cross(cam.up).normalize();
     let up = right.cross(forward);
@@ -68,8 +142,9 @@ pub fn camera_rays(cam: &Camera, width: u32, height: u32, bounds: &Aabb) -> (Vec
                         pixels.push(None);
                         continue;
                     }
-                    let sx = (2.0 * (f64::from(x) + 0.5) / f64::from(width) - 1.0) * half_w;
-                    let sy = (1.0 - 2.0 * (f64::from(y) + 0.5) / f64::from(height)) * half_h;
+                    let (ox, oy) = at(y * width + x);
+                    let sx = (2.0 * (f64::from(x) + ox) / f64::from(width) - 1.0) * half_w;
+                    let sy = (1.0 - 2.0 * (f64::from(y) + oy) / f64::from(height)) * half_h;
                     let d = (forward + sx * right + sy * up).normalize();
                     rays.push(clipped_ray(cam.eye, d, bounds));
                     pixels.push(Some(y * width + x));
@@ -99,4 +174,28 @@ pub fn protocol_rays(bounds: &Aabb, count: usize, seed: u64) -> Vec<GpuRay> {
             clipped_ray(o, (target - o).normalize(), bounds)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn subpixel_samples_are_a_latin_hypercube_of_their_own_in_every_pixel() {
+        for n in [2u32, 3, 4, 7, 16, 33] {
+            for pixel in [0u32, 1, 77, 1_000_003] {
+                let pts: Vec<(f64, f64)> = (0..n).map(|s| subpixel(pixel, s, n, 1)).collect();
+                let mut cols: Vec<u32> = pts.iter().map(|p| (p.0 * f64::from(n)) as u32).collect();
+                let mut rows: Vec<u32> = pts.iter().map(|p| (p.1 * f64::from(n)) as u32).collect();
+                cols.sort_unstable();
+                rows.sort_unstable();
+                assert_eq!(cols, (0..n).collect::<Vec<_>>(), "n {n}, pixel {pixel}: one sample per column");
+                assert_eq!(rows, (0..n).collect::<Vec<_>>(), "n {n}, pixel {pixel}: one sample per row");
+                assert!(pts.iter().all(|p| (0.0..1.0).contains(&p.0) && (0.0..1.0).contains(&p.1)));
+                assert_eq!(pts, (0..n).map(|s| subpixel(pixel, s, n, 1)).collect::<Vec<_>>(), "deterministic");
+            }
+            assert_ne!(subpixel(0, 0, n, 1), subpixel(1, 0, n, 1), "pixels differ");
+        }
+        assert_eq!(subpixel(5, 0, 1, 9), (0.5, 0.5));
+    }
 }
