@@ -410,6 +410,8 @@ pub mod xtc {
         reader: molly::XTCReader<File>,
         file: String,
         offsets: Box<[u64]>,
+        /// Where each frame ends.
+        ends: Box<[u64]>,
         atoms: usize,
         frame: molly::Frame,
     }
@@ -437,7 +439,7 @@ pub mod xtc {
             }
             let mut offsets = vec![0u64];
             offsets.extend(&ends[..ends.len() - 1]);
-            let mut x = XtcFrames { reader, file, offsets: offsets.into(), atoms: 0, frame: molly::Frame::default() };
+            let mut x = XtcFrames { reader, file, offsets: offsets.into(), ends, atoms: 0, frame: molly::Frame::default() };
             let header = x.header(0)?;
             let sites = sites.unwrap_or(header);
             if header != sites {
@@ -453,7 +455,16 @@ pub mod xtc {
             f.seek(SeekFrom::Start(self.offsets[k] + 4)).map_err(|e| fail(&self.file, Some(k), format!("cannot read: {e}")))?;
             let mut b = [0u8; 4];
             f.read_exact(&mut b).map_err(|_| fail(&self.file, Some(k), "the file is cut short inside this frame's header"))?;
-            Ok(u32::from_be_bytes(b) as usize)
+            let atoms = u32::from_be_bytes(b) as usize;
+            // XTC spends at least a bit on an atom (and frames of up to 9
+            // atoms are not compressed): a count beyond that is corrupt,
+            // and would have molly allocate its coordinates (found by the
+            // fuzzer: 2.2 billion atoms in a frame of 100 bytes).
+            let bytes = self.ends[k] - self.offsets[k];
+            if atoms > 9 && atoms as u64 > 8 * bytes {
+                return Err(fail(&self.file, Some(k), format!("corrupt: it claims {atoms} atoms in {bytes} bytes")));
+            }
+            Ok(atoms)
         }
     }
 
