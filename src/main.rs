@@ -512,8 +512,9 @@ struct RenderArgs {
     /// is covered within 1/N; jittered and deterministic), their colours
     /// averaged in linear light. Steps in the heatmap and statistics count
     /// every ray; depth and normal AOVs are the first sample's.
-    #[arg(long, default_value_t = 1, value_name = "N")]
-    samples: u32,
+    /// [default: the scene's camera.samples, else 1]
+    #[arg(long, value_name = "N")]
+    samples: Option<u32>,
     #[command(flatten)]
     batch: BatchArgs,
     #[command(flatten)]
@@ -542,6 +543,12 @@ struct ViewArgs {
     /// Close after playing a trajectory through this many times.
     #[arg(long, value_name = "N")]
     loops: Option<u64>,
+    /// Anti-aliasing: once the view rests, march the frame again at N
+    /// sub-pixel positions and show the passes' mean as they land (as
+    /// `render --samples N` computes it); any motion starts again
+    /// [default: the scene's camera.samples, else 1].
+    #[arg(long, value_name = "N")]
+    samples: Option<u32>,
     /// Window size as WxH (default: the scene's camera.resolution).
     #[arg(long, value_parser = parse_size)]
     size: Option<(u32, u32)>,
@@ -816,8 +823,9 @@ fn check_fps(fps: f64) -> Result<f64> {
 
 /// `--time` of `render` and `view`.
 fn check_samples(n: u32) -> Result<u32> {
-    if !(1..=4096).contains(&n) {
-        bail!("--samples must be 1 to 4096 rays per pixel, got {n}");
+    let most = isomarch::scene::MAX_SAMPLES;
+    if !(1..=most).contains(&n) {
+        bail!("--samples must be 1 to {most} rays per pixel, got {n}");
     }
     Ok(n)
 }
@@ -882,7 +890,7 @@ fn render(args: RenderArgs) -> Result<()> {
         aovs: args.aov,
         aov_output: args.aov_output,
         stats: args.stats,
-        samples: check_samples(args.samples)?,
+        samples: check_samples(args.samples.unwrap_or(scene.camera.samples))?,
         ..RenderJob::new(scene, method, size, args.output, args.gpu.timeout()?)
     };
     // Every output's format from its extension, before any work.
@@ -942,7 +950,10 @@ fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Sc
     .context("installing the signal handler")?;
     let gpu = args.gpu.open()?;
     let method = scene.marching.method;
-    let job = RenderJob { samples: check_samples(args.samples)?, ..RenderJob::new(scene, method, size, output.clone(), gpu.timeout) };
+    let job = RenderJob {
+        samples: check_samples(args.samples.unwrap_or(scene.camera.samples))?,
+        ..RenderJob::new(scene, method, size, output.clone(), gpu.timeout)
+    };
     let s = isomarch::batch::run(&gpu.ctx, &job, stager, &pattern, range, fps, shard, batch.skip_existing, &csv, &stop)?;
     eprintln!(
         "{} frames rendered, {} kept from disk (shard {}/{}); statistics in {}",
@@ -985,6 +996,7 @@ fn view(args: ViewArgs) -> Result<()> {
         FileFormat::of("--screenshot", path, &[FileFormat::Png])?;
     }
     let timeout = args.gpu.timeout()?;
+    let samples = check_samples(args.samples.unwrap_or(scene.camera.samples))?;
     let options = isomarch::view::ViewOptions {
         method: scene.marching.method,
         size: args.size.unwrap_or((scene.camera.width, scene.camera.height)),
@@ -995,6 +1007,7 @@ fn view(args: ViewArgs) -> Result<()> {
         fps,
         preview: Duration::from_secs_f64(args.preview_ms / 1e3),
         exit_after: args.exit_after,
+        samples,
         screenshot: args.screenshot,
         screenshot_dir: args.screenshot_dir,
         device: args.gpu.device,

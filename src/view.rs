@@ -29,8 +29,9 @@ use crate::layout::GpuRay;
 use crate::method::Method;
 use crate::molecule::playback::{Order, Prefetch, Stager};
 use crate::output::{self, LEGEND_HEIGHT};
+use crate::render::offscreen::SAMPLE_SEED;
 use crate::render::offscreen::{march_frame, pixel_stats};
-use crate::render::rays::{PIXEL_TILE, camera_rays};
+use crate::render::rays::{PIXEL_TILE, camera_rays, camera_rays_through, subpixel};
 use crate::render::{MarchOptions, Renderer};
 use crate::scene::Scene;
 
@@ -55,6 +56,9 @@ pub struct ViewOptions {
     /// Wall time one piece of rendering may take before the window handles
     /// its events again (sets the preview resolution and the tiles).
     pub preview: Duration,
+    /// Anti-aliasing: at rest, the frame is marched again at this many
+    /// sub-pixel positions and the passes averaged (1: none).
+    pub samples: u32,
     /// Close after this many presented frames (tests, scripted captures).
     pub exit_after: Option<u64>,
     /// At exit, save the last presented image here.
@@ -217,6 +221,9 @@ impl Orbit {
 
 /// The full-resolution frame being marched tile by tile.
 struct Progressive {
+    /// Anti-aliasing: which of `samples` sub-pixel positions this pass
+    /// marches (`None`: the pixels' centres).
+    sample: Option<u32>,
     scene: Scene,
     rays: Vec<GpuRay>,
     pixels: Vec<Option<u32>>,
@@ -351,6 +358,10 @@ struct Schedule {
     fps_window: (Instant, u64),
     fps: f64,
     title_at: Instant,
+    /// Anti-aliasing: the running mean of the passes (linear light), and
+    /// the next pass to march (at or past `samples`: none).
+    linear: Vec<[f32; 3]>,
+    next_sample: u32,
     started: Instant,
 }
 
@@ -372,6 +383,8 @@ impl Schedule {
             fps_window: (now, 0),
             fps: 0.0,
             title_at: now,
+            linear: Vec::new(),
+            next_sample: u32::MAX,
             started: now,
         }
     }
@@ -646,6 +659,23 @@ impl App {
         self.show()
     }
 
+    /// Starts marching the full-resolution frame, tile by tile: through the
+    /// pixels' centres, or anti-aliasing pass `sample` of `samples`.
+    fn start_pass(&mut self, size: (u32, u32), sample: Option<u32>) -> Result<()> {
+        let scene = self.posed(size);
+        let n = self.options.samples;
+        let (rays, pixels) = match sample {
+            None => camera_rays(&scene.camera, size.0, size.1, &scene.bounds),
+            Some(s) => camera_rays_through(&scene.camera, size.0, size.1, &scene.bounds, |p| subpixel(p, s, n, SAMPLE_SEED)),
+        };
+        if sample == Some(0) {
+            self.schedule.linear = vec![[0.0; 3]; (size.0 * size.1) as usize];
+        }
+        self.schedule.next_sample = sample.map_or(self.schedule.next_sample, |s| s + 1);
+        self.schedule.progressive = Some(Progressive { sample, scene, rays, pixels, next: 0, steps: 0, rays_done: 0, started: Instant::now() });
+        self.progressive_step()
+    }
+
     /// Marches the next tiles of the full-resolution frame (as many as fit
     /// the budget) and shows them over the preview.
     fn progressive_step(&mut self) -> Result<()> {
@@ -658,7 +688,15 @@ impl App {
         for (r, p) in results.iter().zip(&job.pixels[job.next..end]) {
             let Some(p) = *p else { continue };
             let i = p as usize;
-            let c = r.color;
+            let mut c = r.color;
+            if let Some(s) = job.sample {
+                // The running mean of the passes so far, in linear light.
+                let mean = &mut schedule.linear[i];
+                for (m, v) in mean.iter_mut().zip(&mut c) {
+                    *m += (*v - *m) / (s + 1) as f32;
+                    *v = *m;
+                }
+            }
             schedule.shown_rgb[3 * i..3 * i + 3].copy_from_slice(&[output::srgb(c[0]), output::srgb(c[1]), output::srgb(c[2])]);
             schedule.shown_steps[i] = r.counts[0];
             job.steps += u64::from(r.counts[0]);
@@ -720,21 +758,25 @@ impl App {
             self.schedule.progressive = None;
             self.preview_frame(size)?;
             self.schedule.wants_full = self.schedule.preview_divisor > 1;
+            // Anti-aliasing starts again from its first pass.
+            self.schedule.next_sample = if self.options.samples > 1 { 0 } else { u32::MAX };
         } else if self.schedule.progressive.is_some() {
             self.progressive_step()?;
         } else if self.schedule.wants_full {
             // At rest on a preview: march the full frame, tile by tile.
             self.schedule.wants_full = false;
-            let scene = self.posed(size);
-            let (rays, pixels) = camera_rays(&scene.camera, size.0, size.1, &scene.bounds);
-            self.schedule.progressive = Some(Progressive { scene, rays, pixels, next: 0, steps: 0, rays_done: 0, started: Instant::now() });
-            self.progressive_step()?;
+            self.start_pass(size, None)?;
+        } else if self.schedule.next_sample < self.options.samples {
+            // At rest on a whole frame: the next anti-aliasing pass.
+            let s = self.schedule.next_sample;
+            self.start_pass(size, Some(s))?;
         } else if scripted {
             self.show()?;
         }
         let schedule = &self.schedule;
         let waiting = self.player.as_ref().is_some_and(|p| p.frame != p.frame_at(self.camera.time, self.options.fps) && !p.every_frame);
-        let busy = moving || schedule.dirty || schedule.wants_full || schedule.progressive.is_some() || scripted || waiting;
+        let accumulating = schedule.next_sample < self.options.samples;
+        let busy = moving || schedule.dirty || schedule.wants_full || schedule.progressive.is_some() || scripted || waiting || accumulating;
         // Going idle: the title must show the final state.
         self.update_title(!busy);
         el.set_control_flow(if busy { ControlFlow::Poll } else { ControlFlow::Wait });
@@ -778,6 +820,9 @@ impl App {
         }
         if input.heatmap {
             title.push_str(" | steps");
+        }
+        if let Some(s) = schedule.progressive.as_ref().and_then(|j| j.sample) {
+            title.push_str(&format!(" | anti-aliasing {}/{}", s + 1, self.options.samples));
         }
         if self.options.scene.transparency.is_some() && !input.transparency {
             title.push_str(" | opaque");

@@ -158,6 +158,10 @@ fn bad_motion_and_transparency_are_rejected() {
     assert_mentions(&e, &["bad.ron", "motion", "at least one"]);
     let e = error_of(&GOOD.replace("resolution: (16, 16))", "resolution: (16, 16), path: Some(Orbit(period: -2.0)))"));
     assert_mentions(&e, &["bad.ron", "camera.path.period", "positive"]);
+    let e = error_of(&GOOD.replace("resolution: (16, 16))", "resolution: (16, 16), samples: 0)"));
+    assert_mentions(&e, &["bad.ron", "camera.samples", "1..=4096"]);
+    let four = Scene::parse(&GOOD.replace("resolution: (16, 16))", "resolution: (16, 16), samples: 4)"), "ok.ron").unwrap();
+    assert_eq!(four.camera.samples, 4);
     let e = error_of(&GOOD.replace("iso: 0.5,", "iso: 0.5, transparency: Some((opacity: 1.5)),"));
     assert_mentions(&e, &["bad.ron", "transparency.opacity", "[0, 1]"]);
     // And a good one poses: a keyframed blob moves, an orbiting camera turns.

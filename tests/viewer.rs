@@ -519,3 +519,29 @@ fn a_trajectory_plays_through_with_memory_that_does_not_grow() {
     let ((peak1, end1), (peak3, end3)) = (memory[0], memory[1]);
     assert!(peak3 <= peak1 + 15.0, "memory grew with the frames played: peak {peak1} -> {peak3} MiB (at the end {end1} -> {end3} MiB)");
 }
+
+#[test]
+fn at_rest_the_viewer_accumulates_the_anti_aliased_frame_render_makes() {
+    let x = Xvfb::start();
+    let dir = scratch("viewer-samples");
+    let shot = dir.join("view.png");
+    let out = view(&x, &["scenes/fig10.ron", "--size", "64x48", "--samples", "4", "--exit-after", "40", "--screenshot", shot.to_str().unwrap()]);
+    assert_clean(&out, 40);
+    let rendered = |n: &str| {
+        let png = dir.join(format!("render-{n}.png"));
+        let out = Command::new(bin())
+            .args(["render", "scenes/fig10.ron", "--size", "64x48", "--samples", n, "-o", png.to_str().unwrap()])
+            .current_dir(repo_root())
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        image::open(png).unwrap().to_rgb8()
+    };
+    let (shown, four, one) = (image::open(&shot).unwrap().to_rgb8(), rendered("4"), rendered("1"));
+    // The running mean of the four passes (f32) against render's sum (f64):
+    // the same 8-bit image, a level apart at most.
+    let most = shown.pixels().zip(four.pixels()).flat_map(|(a, b)| (0..3).map(move |c| a.0[c].abs_diff(b.0[c]))).max().unwrap();
+    assert!(most <= 1, "the viewer's accumulated frame differs from render --samples 4 by {most} levels");
+    let edges = shown.pixels().zip(one.pixels()).filter(|(a, b)| a != b).count();
+    assert!(edges > 20, "the accumulated frame is the one-sample frame ({edges} pixels differ)");
+}

@@ -36,9 +36,11 @@ pub struct RenderJob {
 
 impl RenderJob {
     /// A job that writes only the shaded image to `output`, at `width` x
-    /// `height` with `method`, within `timeout`.
+    /// `height` with `method` and the scene camera's rays per pixel,
+    /// within `timeout`.
     pub fn new(scene: Scene, method: Method, (width, height): (u32, u32), output: PathBuf, timeout: Duration) -> RenderJob {
         RenderJob {
+            samples: scene.camera.samples,
             scene,
             method,
             width,
@@ -50,7 +52,6 @@ impl RenderJob {
             aov_output: None,
             stats: None,
             timeout,
-            samples: 1,
         }
     }
 }

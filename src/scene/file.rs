@@ -131,6 +131,9 @@ pub struct CameraFile {
     /// Image width and height in pixels.
     #[serde(default = "default_resolution")]
     pub resolution: (u32, u32),
+    /// Anti-aliasing: rays per pixel (`render --samples`).
+    #[serde(default = "default_samples")]
+    pub samples: u32,
     /// How the eye moves over scene time; absent: it stays.
     #[serde(default)]
     pub path: Option<CameraPathFile>,
@@ -331,6 +334,10 @@ fn default_up() -> [f64; 3] {
 fn default_fov() -> f64 {
     40.0
 }
+fn default_samples() -> u32 {
+    1
+}
+
 fn default_resolution() -> (u32, u32) {
     (256, 256)
 }

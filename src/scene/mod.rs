@@ -40,7 +40,12 @@ pub struct Camera {
     pub fov_y_deg: f64,
     pub width: u32,
     pub height: u32,
+    /// Anti-aliasing: rays per pixel (1: through its centre).
+    pub samples: u32,
 }
+
+/// The most rays per pixel a scene or `--samples` may ask for.
+pub const MAX_SAMPLES: u32 = 4096;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Light {
@@ -406,6 +411,9 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
     if w == 0 || h == 0 || w > 16384 || h > 16384 {
         return Err(c.err("camera.resolution", format!("must be 1..=16384 pixels each way, got ({w}, {h})")));
     }
+    if !(1..=MAX_SAMPLES).contains(&cam.samples) {
+        return Err(c.err("camera.samples", format!("must be 1..={MAX_SAMPLES} rays per pixel, got {}", cam.samples)));
+    }
     let iso = c.positive("iso", f.iso)?;
     let method: Method = f.marching.method.parse().map_err(|e: String| c.err("marching.method", e))?;
     let min_step = c.positive("marching.min_step", f.marching.min_step)?;
@@ -585,7 +593,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
     }
     Ok(Scene {
         source: name.to_string(),
-        camera: Camera { eye, target, up, fov_y_deg: fov, width: w, height: h },
+        camera: Camera { eye, target, up, fov_y_deg: fov, width: w, height: h, samples: cam.samples },
         background: c.color("background", f.background)?,
         ambient: c.color("ambient", f.ambient)?,
         surface,
