@@ -267,12 +267,16 @@ class Renderer:
         size: Optional[Tuple[int, int]] = None,
         method: Optional[str] = None,
         time: float = 0.0,
+        samples: Optional[int] = None,
     ) -> Image:
         """Renders ``scene`` at scene ``time`` (seconds), ``size`` (width,
         height; default the scene camera's), with ``method`` (default the
-        scene's): the same pixels as ``isomarch render``."""
+        scene's) and ``samples`` rays per pixel (anti-aliasing; default the
+        scene camera's): the same pixels as ``isomarch render``."""
         width, height = scene.resolution if size is None else size
-        raw = self._native.render(scene._native, int(width), int(height), method, float(time))
+        raw = self._native.render(
+            scene._native, int(width), int(height), method, float(time), None if samples is None else int(samples)
+        )
         return Image(raw, int(width), int(height))
 
     def bench(

@@ -206,6 +206,7 @@ impl NativeRenderer {
         height: u32,
         method: Option<&str>,
         time: f64,
+        samples: Option<u32>,
     ) -> PyResult<Bound<'py, PyDict>> {
         if !(1..=16384).contains(&width) || !(1..=16384).contains(&height) {
             return Err(IsomarchError::new_err(format!("expected a size with each side in 1..=16384, got {width}x{height}")));
@@ -218,7 +219,14 @@ impl NativeRenderer {
             posed.marching.method = m.parse::<Method>().map_err(|e| IsomarchError::new_err(format!("invalid method {m:?}: {e}")))?;
         }
         let method = posed.marching.method;
-        let job = RenderJob::new(posed, method, (width, height), PathBuf::new(), self.timeout);
+        let mut job = RenderJob::new(posed, method, (width, height), PathBuf::new(), self.timeout);
+        if let Some(n) = samples {
+            let most = isomarch::scene::MAX_SAMPLES;
+            if !(1..=most).contains(&n) {
+                return Err(IsomarchError::new_err(format!("--samples must be 1 to {most} rays per pixel, got {n}")));
+            }
+            job.samples = n;
+        }
         let ctx = Arc::clone(&self.ctx);
         let (frame, stats, _, _) = py.detach(move || render_frame_indexed(&ctx, &job)).map_err(raise)?;
         let shaded = frame.shaded();

@@ -40,14 +40,19 @@ def png_pixels(path):
     return np.asarray(PILImage.open(path).convert("RGB"))
 
 
-@pytest.mark.parametrize("scene,method,time", [("fig10.ron", None, 0.0), ("fig16.ron", "quadratic", 0.5), ("default.ron", "segment", 0.0)])
-def test_a_rendered_array_equals_the_cli_png_pixel_for_pixel(renderer, tmp_path, scene, method, time):
+@pytest.mark.parametrize(
+    "scene,method,time,samples",
+    [("fig10.ron", None, 0.0, None), ("fig16.ron", "quadratic", 0.5, None), ("default.ron", "segment", 0.0, None), ("fig10.ron", None, 0.0, 4)],
+)
+def test_a_rendered_array_equals_the_cli_png_pixel_for_pixel(renderer, tmp_path, scene, method, time, samples):
     out = tmp_path / "cli.png"
     args = ["render", ROOT / "scenes" / scene, "--size", "64x48", "--time", time, "-o", out]
     if method:
         args += ["--method", method]
+    if samples:
+        args += ["--samples", samples]
     cli(*args)
-    image = renderer.render(isomarch.Scene.load(ROOT / "scenes" / scene), size=(64, 48), method=method, time=time)
+    image = renderer.render(isomarch.Scene.load(ROOT / "scenes" / scene), size=(64, 48), method=method, time=time, samples=samples)
     expected = png_pixels(out)
     assert image.rgba.shape == (48, 64, 4) and image.rgba.dtype == np.uint8
     assert (image.rgba[..., 3] == 255).all()
@@ -57,7 +62,7 @@ def test_a_rendered_array_equals_the_cli_png_pixel_for_pixel(renderer, tmp_path,
     assert image.png() == out.read_bytes()
     assert image._repr_png_().startswith(b"\x89PNG")
     assert np.asarray(image).shape == (48, 64, 4)
-    assert image.stats["rays"] == 64 * 48 and image.stats["steps_per_ray"] > 0
+    assert image.stats["rays"] == 64 * 48 * (samples or 1) and image.stats["steps_per_ray"] > 0
 
 
 def read_pdb_atoms(path):
