@@ -77,7 +77,13 @@ void main() {
         float t = SC_TRANSPARENT != 0u ? m.first : m.t;
         vec3 n = surface_normal(o + t * u);
         r.hit = vec4(n, t);
-        if (SC_SHADE != 0u) r.color = vec4(shade(n, u), 1.0);
+        if (SC_SHADE != 0u) {
+            r.color = vec4(shade(n, u), 1.0);
+            // The unlit colour, for shadows and occlusion on the host
+            // (src/render/light.rs): 11, 11 and 10 bits.
+            vec3 base = clamp(globals.surface.w != 0.0 ? g_color : globals.surface.rgb, 0.0, 1.0);
+            r.crossings.w = (uint(base.r * 2047.0 + 0.5) << 21u) | (uint(base.g * 2047.0 + 0.5) << 10u) | uint(base.b * 1023.0 + 0.5);
+        }
     }
     if (SC_TRANSPARENT != 0u && SC_SHADE != 0u) {
         // What the crossings let through shows the background.

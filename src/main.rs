@@ -387,6 +387,18 @@ struct MarchArgs {
     /// secant and bisection reproduce the figures measured before).
     #[arg(long, value_enum)]
     refine: Option<isomarch::settings::Refinement>,
+    /// Shadows: from every shaded hit, a ray towards each light, marched
+    /// with the same method until the surface crosses it (opaque scenes).
+    #[arg(long)]
+    shadows: bool,
+    /// Ambient occlusion: N cosine-weighted rays over the hemisphere of
+    /// every shaded hit, each looking --ao-distance far (opaque scenes).
+    #[arg(long, value_name = "N")]
+    ao: Option<u32>,
+    /// How far occlusion rays look (scene units) [default: the scene's
+    /// ao.distance, else 4 x the smallest primitive radius].
+    #[arg(long, value_name = "D", requires = "ao")]
+    ao_distance: Option<f64>,
     /// March the first crossing only, as if the scene had no
     /// `transparency` section (so that the opaque-only bisection
     /// baselines can run on a transparent or refractive scene).
@@ -397,7 +409,17 @@ struct MarchArgs {
 impl MarchArgs {
     /// No overrides.
     fn none() -> MarchArgs {
-        MarchArgs { method: None, min_step: None, max_steps: None, growth: None, refine: None, opaque: false }
+        MarchArgs {
+            method: None,
+            min_step: None,
+            max_steps: None,
+            growth: None,
+            refine: None,
+            opaque: false,
+            shadows: false,
+            ao: None,
+            ao_distance: None,
+        }
     }
 
     /// Loads the scene or molecule file at `path` with these overrides.
@@ -436,6 +458,19 @@ impl MarchArgs {
         }
         if self.opaque {
             scene.transparency = None;
+        }
+        if self.shadows {
+            scene.shadows = true;
+        }
+        if let Some(n) = self.ao {
+            if !(1..=1024).contains(&n) {
+                bail!("--ao must be 1 to 1024 rays per hit, got {n}");
+            }
+            let distance = self.ao_distance.or(scene.ao.map(|a| a.distance)).unwrap_or(4.0 * scene.min_radius());
+            if !(distance.is_finite() && distance > 0.0) {
+                bail!("--ao-distance must be positive, got {distance}");
+            }
+            scene.ao = Some(isomarch::scene::Ao { samples: n, distance });
         }
         Ok(())
     }

@@ -198,6 +198,7 @@ impl NativeRenderer {
     /// Renders `scene` at `time`: a dict of flat arrays (rgba uint8, depth
     /// float32 with inf on misses, steps uint32, normals float32) and the
     /// frame's statistics.
+    #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &self,
         py: Python<'py>,

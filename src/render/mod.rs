@@ -2,6 +2,7 @@
 //! dispatches with deadlines.
 
 pub mod index;
+pub mod light;
 pub mod offscreen;
 pub mod optics;
 pub mod rays;

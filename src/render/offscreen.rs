@@ -214,7 +214,9 @@ pub fn march_frame(renderer: &mut Renderer, method: Method, options: MarchOption
         t.ior.map(|ior| super::optics::Dielectric { ior, absorption: t.absorption, max_depth: t.max_depth, reflectivity: t.reflectivity })
     });
     let Some(material) = dielectric else {
-        return renderer.march(method, options, rays, |_| {});
+        let mut out = renderer.march(method, options, rays, |_| {})?;
+        super::light::apply(renderer, method, options, rays, &mut out)?;
+        return Ok(out);
     };
     let traced = super::optics::trace(renderer, method, options, rays, material)?;
     let mut results = traced.first;

@@ -71,6 +71,14 @@ pub struct SceneFile {
     /// Absent: opaque, the first crossing only.
     #[serde(default)]
     pub transparency: Option<TransparencyFile>,
+    /// Shadows: every shaded hit asks, for each light, whether the surface
+    /// crosses the ray towards it (opaque scenes).
+    #[serde(default)]
+    pub shadows: bool,
+    /// Ambient occlusion: rays over the hemisphere of each shaded hit
+    /// (opaque scenes).
+    #[serde(default)]
+    pub ao: Option<AoFile>,
     /// The iso value: the surface is where the field equals it.
     pub iso: f64,
     #[serde(default)]
@@ -81,6 +89,20 @@ pub struct SceneFile {
     /// Groups of primitives: fields are summed within a group and groups are
     /// combined by max (Eq. 20).
     pub groups: Vec<GroupFile>,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct AoFile {
+    /// Rays per hit, cosine-weighted over the hemisphere.
+    #[serde(default = "default_ao_samples")]
+    pub samples: u32,
+    /// How far a ray looks for an occluder (scene units).
+    pub distance: f64,
+}
+
+fn default_ao_samples() -> u32 {
+    8
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

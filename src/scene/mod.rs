@@ -58,6 +58,13 @@ pub struct Light {
 /// Transparent rendering (Section 7.2): every crossing along a ray is
 /// found; each surface crossing shows its shaded colour with weight
 /// `opacity` and passes the rest on, attenuated inside by Beer-Lambert.
+/// Ambient occlusion: `samples` rays per hit, each looking `distance` far.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ao {
+    pub samples: u32,
+    pub distance: f64,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Transparency {
     pub opacity: f64,
@@ -182,6 +189,10 @@ pub struct Scene {
     pub iso: f64,
     /// `None`: opaque, the first crossing only.
     pub transparency: Option<Transparency>,
+    /// Shadows from every light (opaque scenes; src/render/light.rs).
+    pub shadows: bool,
+    /// Ambient occlusion (opaque scenes).
+    pub ao: Option<Ao>,
     pub marching: Marching,
     /// Max over groups of sums over primitives (Eq. 20).
     pub groups: Vec<Vec<Primitive>>,
@@ -437,6 +448,15 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         "every" => ValidityScope::Every,
         other => return Err(c.err("marching.validity", format!("expected \"significant\" or \"every\", got {other:?}"))),
     };
+    let ao = match &f.ao {
+        None => None,
+        Some(a) => {
+            if !(1..=1024).contains(&a.samples) {
+                return Err(c.err("ao.samples", format!("must be 1..=1024 rays per hit, got {}", a.samples)));
+            }
+            Some(Ao { samples: a.samples, distance: c.positive("ao.distance", a.distance)? })
+        }
+    };
     let transparency = match &f.transparency {
         None => None,
         Some(t) => {
@@ -600,6 +620,8 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         lights,
         iso,
         transparency,
+        shadows: f.shadows,
+        ao,
         marching: Marching {
             method,
             min_step,

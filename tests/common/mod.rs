@@ -77,6 +77,8 @@ pub fn scene(groups: Vec<Vec<Primitive>>, iso: f64, method: Method, min_step: f6
         lights: vec![Light { direction: DVec3::new(0.4, 0.8, 0.45).normalize(), color: DVec3::ONE }],
         iso,
         transparency: None,
+        shadows: false,
+        ao: None,
         marching: Marching { method, min_step, max_steps: 100_000, growth: None, quad: Default::default(), refine: Default::default() },
         groups,
         bounds: Aabb::empty(),
