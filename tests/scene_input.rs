@@ -197,6 +197,7 @@ const OPTIONAL_FIELDS: &[(&str, &str, &str, &str)] = &[
         "resolution: (16, 16), path: Some(Keyframes([(0.0, (0.0, 0.0, 8.0)), (1.0, (1.0, 0.0, 8.0))])))",
     ),
     ("transparency", "iso: 0.5,", "iso: 0.5, transparency: (opacity: 0.3),", "iso: 0.5, transparency: Some((opacity: 0.3)),"),
+    ("ao", "iso: 0.5,", "iso: 0.5, ao: (samples: 4, distance: 2.0),", "iso: 0.5, ao: Some((samples: 4, distance: 2.0)),"),
     ("ior", "iso: 0.5,", "iso: 0.5, transparency: (ior: 1.4),", "iso: 0.5, transparency: (ior: Some(1.4)),"),
     ("growth", "iso: 0.5,", "iso: 0.5, marching: (growth: 2.5),", "iso: 0.5, marching: (growth: Some(2.5)),"),
     ("refine", "iso: 0.5,", "iso: 0.5, marching: (refine: \"bisection\"),", "iso: 0.5, marching: (refine: Some(\"bisection\")),"),
