@@ -161,7 +161,8 @@ pub fn march_image(
 ) -> Result<(Frame, MarchStats)> {
     let n = samples.max(1);
     let mut image: Option<Frame> = None;
-    let mut sums = vec![[0f64; 3]; (width * height) as usize];
+    // Only several samples need the sums and every ray's results.
+    let mut sums = if n > 1 { vec![[0f64; 3]; (width * height) as usize] } else { Vec::new() };
     let mut marched = Vec::new();
     let mut gpu_ns = Some(0.0);
     for s in 0..n {
@@ -174,7 +175,9 @@ pub fn march_image(
                 *s += f64::from(c);
             }
         }
-        marched.extend(out.results.iter().zip(&pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| *r));
+        if n > 1 {
+            marched.extend(out.results.iter().zip(&pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| *r));
+        }
         match &mut image {
             None => image = Some(frame),
             Some(first) => {
@@ -196,7 +199,9 @@ pub fn march_image(
             }
         }
     }
-    Ok((image, MarchStats::of(marched.iter(), gpu_ns)))
+    // One sample: the frame's pixels are its rays' results.
+    let stats = if n > 1 { MarchStats::of(marched.iter(), gpu_ns) } else { MarchStats::of(image.pixels.iter(), gpu_ns) };
+    Ok((image, stats))
 }
 
 /// Statistics of a frame's march over its pixels (not the padding rays
