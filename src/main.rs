@@ -220,7 +220,13 @@ impl MoleculeArgs {
             return Ok(Scene::load(path)?);
         }
         let started = std::time::Instant::now();
-        let (scene, notes) = isomarch::molecule::build::load_scene(path, &self.options())?;
+        self.scene_of(&isomarch::molecule::read(path)?, started)
+    }
+
+    /// The scene of molecule `m` (read from `started` on), its notes and
+    /// warnings printed to stderr.
+    fn scene_of(&self, m: &isomarch::molecule::Molecule, started: std::time::Instant) -> Result<Scene> {
+        let (scene, notes) = isomarch::molecule::build::scene_of(m, &self.options())?;
         for w in &notes.warnings {
             eprintln!("warning: {w}");
         }
@@ -242,6 +248,17 @@ struct PlayArgs {
     framing: FramingRule,
 }
 
+/// What a command's files hold, as read.
+#[allow(clippy::large_enum_variant)] // one per command
+enum Opened {
+    /// Frames: a trajectory, or a file of several models or frames.
+    Frames(Stager),
+    /// One molecule, and when its reading started.
+    Molecule(isomarch::molecule::Molecule, std::time::Instant),
+    /// A scene file (not read yet).
+    SceneFile,
+}
+
 /// What a command was given to render: one scene, or the frames of a
 /// trajectory.
 #[allow(clippy::large_enum_variant)] // one per command
@@ -255,30 +272,38 @@ impl Input {
     /// `trajectory`: frames where there is a trajectory or the molecule
     /// file holds more than one model or frame, else one scene.
     fn open(path: &Path, trajectory: Option<&Path>, molecule: &MoleculeArgs, march: &MarchArgs, play: &PlayArgs) -> Result<Input> {
-        match Input::frames(path, trajectory, molecule, march, play)? {
-            Some(stager) => Ok(Input::Frames(stager)),
-            None => Ok(Input::Still(march.load(path, molecule)?)),
-        }
+        Ok(match Input::read(path, trajectory, molecule, march, play)? {
+            Opened::Frames(stager) => Input::Frames(stager),
+            Opened::Molecule(m, started) => {
+                let mut scene = molecule.scene_of(&m, started)?;
+                march.apply(&mut scene)?;
+                Input::Still(scene)
+            }
+            Opened::SceneFile => Input::Still(march.load(path, molecule)?),
+        })
     }
 
-    /// The frames of `path` (and `trajectory`), or `None` where it holds one.
-    fn frames(path: &Path, trajectory: Option<&Path>, molecule: &MoleculeArgs, march: &MarchArgs, play: &PlayArgs) -> Result<Option<Stager>> {
+    /// What `path` (and `trajectory`) holds, each file read once.
+    fn read(path: &Path, trajectory: Option<&Path>, molecule: &MoleculeArgs, march: &MarchArgs, play: &PlayArgs) -> Result<Opened> {
+        let started = std::time::Instant::now();
         let psf = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("psf"));
-        let multi = match trajectory {
-            Some(_) => true,
-            // Refused by the trajectory reader, with why.
-            None if psf => true,
-            None if isomarch::molecule::is_molecule(path) => isomarch::molecule::read(path)?.extra_models > 0,
-            None => false,
-        };
-        if !multi {
-            if let Some(k) = play.frame.filter(|&k| k > 0) {
-                bail!("--frame {k}: {} holds one frame (frame 0)", path.display());
+        // A PSF alone goes to the trajectory reader, which says why not.
+        if trajectory.is_none() && !psf {
+            let single = if isomarch::molecule::is_molecule(path) {
+                let m = isomarch::molecule::read(path)?;
+                if m.extra_models > 0 { None } else { Some(Opened::Molecule(m, started)) }
+            } else {
+                Some(Opened::SceneFile)
+            };
+            if let Some(single) = single {
+                if let Some(k) = play.frame.filter(|&k| k > 0) {
+                    bail!("--frame {k}: {} holds one frame (frame 0)", path.display());
+                }
+                if play.framing != FramingRule::First {
+                    bail!("--framing applies to trajectories and files of several models; {} holds one", path.display());
+                }
+                return Ok(single);
             }
-            if play.framing != FramingRule::First {
-                bail!("--framing applies to trajectories and files of several models; {} holds one", path.display());
-            }
-            return Ok(None);
         }
         let t = isomarch::molecule::trajectory::open(path, trajectory)?;
         let frames = t.len();
@@ -295,7 +320,7 @@ impl Input {
             if frames == 1 { "" } else { "s" },
             time.map_or(String::new(), |t| format!(", the first at {t} ps"))
         );
-        Ok(Some(stager))
+        Ok(Opened::Frames(stager))
     }
 
     /// The scene of frame `frame` (0 where not given).
@@ -1144,17 +1169,14 @@ fn scene(args: SceneArgs) -> Result<()> {
     if !args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron")) {
         bail!("-o {}: a scene file must end in .ron", args.output.display());
     }
-    if !isomarch::molecule::is_molecule(&args.molecule) && args.trajectory.is_none() {
-        bail!("{}: not a molecule file: expected .pdb, .ent, .cif, .mmcif or .gro, optionally .gz", args.molecule.display());
-    }
-    let frames = Input::frames(&args.molecule, args.trajectory.as_deref(), &args.molecule_args, &MarchArgs::none(), &args.play)?;
-    let (text, source) = match frames {
-        Some(mut stager) => {
+    let opened = Input::read(&args.molecule, args.trajectory.as_deref(), &args.molecule_args, &MarchArgs::none(), &args.play)?;
+    let (text, source) = match opened {
+        Opened::Frames(mut stager) => {
             let k = args.play.frame.unwrap_or(0);
             (stager.text(k)?.0, stager.trajectory.topology.source.clone())
         }
-        None => {
-            let m = isomarch::molecule::read(&args.molecule)?;
+        Opened::SceneFile => bail!("{}: not a molecule file: expected .pdb, .ent, .cif, .mmcif or .gro, optionally .gz", args.molecule.display()),
+        Opened::Molecule(m, _) => {
             let (text, notes) = isomarch::molecule::build::scene_text(&m, &args.molecule_args.options())?;
             for w in &notes.warnings {
                 eprintln!("warning: {w}");

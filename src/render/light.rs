@@ -13,9 +13,10 @@
 //! ambient rays takes that fraction of the ambient term away.
 //!
 //! AO rays are cosine-weighted over the hemisphere: the R2 sequence
-//! (Roberts 2018) for `samples` points, shifted per ray by a hashed
-//! rotation (Cranley-Patterson), so every run casts the same rays and
-//! neighbouring pixels do not repeat one pattern. Each looks `distance`
+//! (Roberts 2018) for `samples` points, shifted per camera ray by a
+//! rotation hashed from its direction (Cranley-Patterson), so every run,
+//! and the viewer's tiles, cast the same rays, and neighbouring pixels do
+//! not repeat one pattern. Each looks `distance`
 //! far. Transparent and dielectric scenes are not shadowed.
 
 use anyhow::{Result, bail};
@@ -50,7 +51,7 @@ pub fn light_terms(base: DVec3, n: DVec3, u: DVec3, l: DVec3, color: DVec3) -> D
 }
 
 /// Direction `k` of the cosine-weighted ambient-occlusion rays about unit
-/// `normal`, for ray `ray` (its rotation).
+/// `normal`, for the camera ray of hash `ray` (its rotation).
 pub fn ao_direction(normal: DVec3, k: u32, ray: u32) -> DVec3 {
     // R2: the plastic number's inverse powers.
     const G: f64 = 1.324_717_957_244_746;
@@ -120,8 +121,11 @@ pub fn apply(renderer: &mut Renderer, method: Method, options: MarchOptions, ray
             }
         }
         if let Some(ao) = scene.ao {
+            // The rotation follows the camera ray itself, not its place in
+            // this batch: the viewer's tiles and a whole frame cast the same.
+            let key = ray.d[0].to_bits() ^ ray.d[1].to_bits().rotate_left(11) ^ ray.d[2].to_bits().rotate_left(22);
             for k in 0..ao.samples {
-                spawn(ao_direction(facing, k, i as u32), ao.distance, Kind::Ao);
+                spawn(ao_direction(facing, k, key), ao.distance, Kind::Ao);
             }
         }
     }
