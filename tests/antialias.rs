@@ -28,11 +28,6 @@ fn scene_text(method: &str) -> String {
     )
 }
 
-fn channel(exr: &exr::prelude::FlatImage, name: &str) -> Vec<f32> {
-    let c = exr.layer_data[0].channel_data.list.iter().find(|c| c.name.to_string() == name).unwrap_or_else(|| panic!("no channel {name}"));
-    c.sample_data.values_as_f32().collect()
-}
-
 #[test]
 fn an_edges_pixels_hold_its_analytic_coverage_within_one_over_n() {
     let dir = scratch("antialias");
@@ -57,7 +52,7 @@ fn an_edges_pixels_hold_its_analytic_coverage_within_one_over_n() {
             let exr_path = dir.join(format!("{method}-{n}.exr"));
             run_ok(&["render", path.to_str().unwrap(), "-o", exr_path.to_str().unwrap(), "--samples", &n.to_string()]);
             let exr = exr::prelude::read_all_flat_layers_from_file(&exr_path).unwrap();
-            let red = channel(&exr, "R");
+            let red = exr_channel(&exr, "R");
             let (inside, outside) = (0.8f64, 0.1f64);
             let mut partial = 0;
             for y in 0..h {

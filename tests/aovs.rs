@@ -21,12 +21,6 @@ const SPHERE: &str = r#"Scene(
     groups: [(primitives: [Point(center: (0.6, 0.35, 0.0), kernel: Compact(radius: 2.0))])],
 )"#;
 
-/// A channel of the EXR's first layer, row-major, top row first.
-fn channel(exr: &exr::prelude::FlatImage, name: &str) -> Vec<f32> {
-    let c = exr.layer_data[0].channel_data.list.iter().find(|c| c.name.to_string() == name).unwrap_or_else(|| panic!("no channel {name}"));
-    c.sample_data.values_as_f32().collect()
-}
-
 #[test]
 fn exr_aovs_hold_the_frames_results_and_the_spheres_closed_form() {
     let dir = scratch("aovs");
@@ -46,8 +40,8 @@ fn exr_aovs_hold_the_frames_results_and_the_spheres_closed_form() {
     let exr = exr::prelude::read_all_flat_layers_from_file(&exr_path).unwrap();
     let (w, h) = (40usize, 32usize);
     assert_eq!((exr.layer_data[0].size.width(), exr.layer_data[0].size.height()), (w, h));
-    let (z, steps) = (channel(&exr, "Z"), channel(&exr, "steps"));
-    let normal = [channel(&exr, "normal.X"), channel(&exr, "normal.Y"), channel(&exr, "normal.Z")];
+    let (z, steps) = (exr_channel(&exr, "Z"), exr_channel(&exr, "steps"));
+    let normal = [exr_channel(&exr, "normal.X"), exr_channel(&exr, "normal.Y"), exr_channel(&exr, "normal.Z")];
 
     // The frame's results, marched in this process: the same numbers.
     let ctx = gpu();

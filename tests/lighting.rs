@@ -31,9 +31,7 @@ fn scene_text(method: &str, sphere: bool, light: DVec3) -> String {
 }
 
 fn red(exr: &std::path::Path) -> Vec<f32> {
-    let exr = exr::prelude::read_all_flat_layers_from_file(exr).unwrap();
-    let c = exr.layer_data[0].channel_data.list.iter().find(|c| c.name.to_string() == "R").unwrap();
-    c.sample_data.values_as_f32().collect()
+    exr_channel(&exr::prelude::read_all_flat_layers_from_file(exr).unwrap(), "R")
 }
 
 #[test]

@@ -174,3 +174,9 @@ pub fn random_hrbf_scene(seed: u64, max_of_groups: bool, method: Method) -> Scen
     s.marching.min_step = 1e-4 * s.min_radius();
     s
 }
+
+/// A channel of an EXR image's first layer, row-major, top row first.
+pub fn exr_channel(exr: &exr::prelude::FlatImage, name: &str) -> Vec<f32> {
+    let c = exr.layer_data[0].channel_data.list.iter().find(|c| c.name.to_string() == name).unwrap_or_else(|| panic!("no channel {name}"));
+    c.sample_data.values_as_f32().collect()
+}
