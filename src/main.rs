@@ -209,18 +209,13 @@ impl MoleculeArgs {
         v
     }
 
-    /// The scene of `path`: a molecule file built with these options (its
-    /// notes and warnings printed to stderr), else a scene file.
-    fn load(&self, path: &Path) -> Result<Scene> {
-        if !isomarch::molecule::is_molecule(path) {
-            let given = self.given();
-            if !given.is_empty() {
-                bail!("{} applies to molecule files (.pdb, .cif, .gro, optionally .gz); {} is a scene file", given.join(", "), path.display());
-            }
-            return Ok(Scene::load(path)?);
+    /// The scene file at `path`, refused where molecule flags were given.
+    fn scene_file(&self, path: &Path) -> Result<Scene> {
+        let given = self.given();
+        if !given.is_empty() {
+            bail!("{} applies to molecule files (.pdb, .cif, .gro, optionally .gz); {} is a scene file", given.join(", "), path.display());
         }
-        let started = std::time::Instant::now();
-        self.scene_of(&isomarch::molecule::read(path)?, started)
+        Ok(Scene::load(path)?)
     }
 
     /// The scene of molecule `m` (read from `started` on), its notes and
@@ -447,9 +442,9 @@ impl MarchArgs {
         }
     }
 
-    /// Loads the scene or molecule file at `path` with these overrides.
+    /// Loads the scene file at `path` with these overrides.
     fn load(&self, path: &Path, molecule: &MoleculeArgs) -> Result<Scene> {
-        let mut scene = molecule.load(path)?;
+        let mut scene = molecule.scene_file(path)?;
         self.apply(&mut scene)?;
         Ok(scene)
     }
@@ -488,8 +483,9 @@ impl MarchArgs {
             scene.shadows = true;
         }
         if let Some(n) = self.ao {
-            if !(1..=1024).contains(&n) {
-                bail!("--ao must be 1 to 1024 rays per hit, got {n}");
+            let most = isomarch::scene::MAX_AO_SAMPLES;
+            if !(1..=most).contains(&n) {
+                bail!("--ao must be 1 to {most} rays per hit, got {n}");
             }
             let distance = self.ao_distance.or(scene.ao.map(|a| a.distance)).unwrap_or(4.0 * scene.min_radius());
             if !(distance.is_finite() && distance > 0.0) {
@@ -882,14 +878,6 @@ fn check_fps(fps: f64) -> Result<f64> {
 }
 
 /// `--time` of `render` and `view`.
-fn check_samples(n: u32) -> Result<u32> {
-    let most = isomarch::scene::MAX_SAMPLES;
-    if !(1..=most).contains(&n) {
-        bail!("--samples must be 1 to {most} rays per pixel, got {n}");
-    }
-    Ok(n)
-}
-
 fn check_time(time: f64) -> Result<f64> {
     if !time.is_finite() {
         bail!("--time must be a finite number of seconds, got {time}");
@@ -950,7 +938,7 @@ fn render(args: RenderArgs) -> Result<()> {
         aovs: args.aov,
         aov_output: args.aov_output,
         stats: args.stats,
-        samples: check_samples(args.samples.unwrap_or(scene.camera.samples))?,
+        samples: isomarch::render::offscreen::check_samples(args.samples.unwrap_or(scene.camera.samples))?,
         ..RenderJob::new(scene, method, size, args.output, args.gpu.timeout()?)
     };
     // Every output's format from its extension, before any work.
@@ -1011,7 +999,7 @@ fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Sc
     let gpu = args.gpu.open()?;
     let method = scene.marching.method;
     let job = RenderJob {
-        samples: check_samples(args.samples.unwrap_or(scene.camera.samples))?,
+        samples: isomarch::render::offscreen::check_samples(args.samples.unwrap_or(scene.camera.samples))?,
         ..RenderJob::new(scene, method, size, output.clone(), gpu.timeout)
     };
     let s = isomarch::batch::run(&gpu.ctx, &job, stager, &pattern, range, fps, shard, batch.skip_existing, &csv, &stop)?;
@@ -1056,7 +1044,7 @@ fn view(args: ViewArgs) -> Result<()> {
         FileFormat::of("--screenshot", path, &[FileFormat::Png])?;
     }
     let timeout = args.gpu.timeout()?;
-    let samples = check_samples(args.samples.unwrap_or(scene.camera.samples))?;
+    let samples = isomarch::render::offscreen::check_samples(args.samples.unwrap_or(scene.camera.samples))?;
     let options = isomarch::view::ViewOptions {
         method: scene.marching.method,
         size: args.size.unwrap_or((scene.camera.width, scene.camera.height)),

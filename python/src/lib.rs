@@ -222,11 +222,7 @@ impl NativeRenderer {
         let method = posed.marching.method;
         let mut job = RenderJob::new(posed, method, (width, height), PathBuf::new(), self.timeout);
         if let Some(n) = samples {
-            let most = isomarch::scene::MAX_SAMPLES;
-            if !(1..=most).contains(&n) {
-                return Err(IsomarchError::new_err(format!("--samples must be 1 to {most} rays per pixel, got {n}")));
-            }
-            job.samples = n;
+            job.samples = isomarch::render::offscreen::check_samples(n).map_err(raise)?;
         }
         let ctx = Arc::clone(&self.ctx);
         let (frame, stats, _, _) = py.detach(move || render_frame_indexed(&ctx, &job)).map_err(raise)?;

@@ -142,6 +142,13 @@ pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Fram
     Ok((frame, stats, renderer.index_stats(), memory))
 }
 
+/// `n` rays per pixel, checked as `--samples` (1 to `scene::MAX_SAMPLES`).
+pub fn check_samples(n: u32) -> Result<u32> {
+    let most = crate::scene::MAX_SAMPLES;
+    anyhow::ensure!((1..=most).contains(&n), "--samples must be 1 to {most} rays per pixel, got {n}");
+    Ok(n)
+}
+
 /// The seed of the sub-pixel samples' permutations ([`subpixel`]).
 pub const SAMPLE_SEED: u32 = 1;
 

@@ -46,6 +46,8 @@ pub struct Camera {
 
 /// The most rays per pixel a scene or `--samples` may ask for.
 pub const MAX_SAMPLES: u32 = 4096;
+/// The most ambient-occlusion rays per hit a scene or `--ao` may ask for.
+pub const MAX_AO_SAMPLES: u32 = 1024;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Light {
@@ -451,8 +453,8 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
     let ao = match &f.ao {
         None => None,
         Some(a) => {
-            if !(1..=1024).contains(&a.samples) {
-                return Err(c.err("ao.samples", format!("must be 1..=1024 rays per hit, got {}", a.samples)));
+            if !(1..=MAX_AO_SAMPLES).contains(&a.samples) {
+                return Err(c.err("ao.samples", format!("must be 1..={MAX_AO_SAMPLES} rays per hit, got {}", a.samples)));
             }
             Some(Ao { samples: a.samples, distance: c.positive("ao.distance", a.distance)? })
         }
