@@ -75,7 +75,8 @@ void main() {
         // may have passed it slices ago, behind what culling kept.
         if (SC_TRANSPARENT != 0u) uncull();
         float t = SC_TRANSPARENT != 0u ? m.first : m.t;
-        vec3 n = surface_normal(o + t * u);
+        // An any-hit query wants only the answer: no normal.
+        vec3 n = SC_ANY_HIT != 0u ? vec3(0.0) : surface_normal(o + t * u);
         r.hit = vec4(n, t);
         if (SC_SHADE != 0u) {
             r.color = vec4(shade(n, u), 1.0);

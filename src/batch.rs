@@ -9,7 +9,7 @@ use anyhow::{Result, bail};
 pub mod merge;
 
 /// The header of a batch's per-frame statistics CSV.
-pub const CSV_HEADER: &str = "frame,time_s,file,width,height,method,steps_per_ray,evals_per_ray,hit_rate,gpu_ms,wall_ms,index_build_ms";
+pub const CSV_HEADER: &str = "frame,time_s,file,width,height,method,steps_per_ray,evals_per_ray,hit_rate,gpu_ms,wall_ms,index_build_ms,shadow_steps_per_ray,ao_steps_per_ray,any_hit_gpu_ms";
 
 /// Frames `start..end` (end excluded), parsed from Rust range syntax:
 /// `a..b` excludes b, `a..=b` includes it, a lone `n` is one frame.
@@ -300,7 +300,7 @@ pub fn run(
         };
         writeln!(
             log,
-            "{frame},{:.6},\"{}\",{},{},{},{:.4},{:.2},{:.5},{},{:.1},{index_ms}",
+            "{frame},{:.6},\"{}\",{},{},{},{:.4},{:.2},{:.5},{},{:.1},{index_ms},{}",
             frame as f64 / fps,
             path.display().to_string().replace('"', "\"\""),
             job.width,
@@ -310,7 +310,8 @@ pub fn run(
             stats.evals_per_ray,
             stats.hit_rate,
             stats.gpu_ms.map_or(String::new(), |ms| format!("{ms:.2}")),
-            started.elapsed().as_secs_f64() * 1e3
+            started.elapsed().as_secs_f64() * 1e3,
+            any_hit_columns(stats.any_hit.as_ref())
         )?;
         log.flush()?;
         summary.rendered += 1;
@@ -318,4 +319,17 @@ pub fn run(
     }
     bar.finish_and_clear();
     Ok(summary)
+}
+
+/// The CSV's shadow and occlusion columns: steps per shadow ray and per
+/// occlusion ray and their GPU ms, empty where the frame cast none.
+fn any_hit_columns(a: Option<&crate::render::light::AnyHitStats>) -> String {
+    let Some(a) = a else { return ",,".to_string() };
+    let per = |rays: u64, steps: f64| if rays > 0 { format!("{steps:.4}") } else { String::new() };
+    format!(
+        "{},{},{}",
+        per(a.shadow_rays, a.shadow_steps_per_ray),
+        per(a.ao_rays, a.ao_steps_per_ray),
+        a.gpu_ms.map_or(String::new(), |ms| format!("{ms:.2}"))
+    )
 }

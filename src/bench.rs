@@ -4,6 +4,7 @@
 use std::sync::Arc;
 
 use anyhow::Result;
+use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -17,7 +18,7 @@ use crate::method::Method;
 use crate::output::MarchStats;
 use crate::render::index::IndexStats;
 use crate::render::rays::{Ray, camera_rays, protocol_rays};
-use crate::render::{MarchOptions, Renderer};
+use crate::render::{MarchOptions, Renderer, light};
 use crate::scene::{Kernel, Primitive, Scene};
 use crate::settings::QuadSettings;
 use crate::stats::{median, range};
@@ -25,6 +26,9 @@ use crate::stats::{median, range};
 /// docs/benchmark-protocol.md: 1,048,576 rays unless told otherwise.
 pub const DEFAULT_RAYS: usize = 1 << 20;
 pub const DEFAULT_SEED: u64 = 20230601;
+/// `bench --any-hit` on a scene without shadows or occlusion: occlusion
+/// rays per hit (and shadows).
+pub const DEFAULT_AO_SAMPLES: u32 = 8;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct MethodReport {
@@ -64,6 +68,10 @@ pub struct MethodReport {
     /// the first `VALIDITY_SAMPLE_RAYS` rays (`quadratic` on scenes with
     /// Gaussians only).
     pub validity_kept: Option<f64>,
+    /// `bench --any-hit`: steps per shadow and per occlusion ray, and the
+    /// agreement of the answers with the reference's (the miss and
+    /// false-hit rates are then the two kinds of disagreement).
+    pub any_hit: Option<AnyHitFigures>,
 }
 
 /// Rays of the f64 mirror march that measures validity intervals.
@@ -138,6 +146,10 @@ pub struct BenchReport {
     /// of at most 64 primitives, which march without one); built once,
     /// the scene being posed at time 0.
     pub index: Option<IndexStats>,
+    /// `bench --any-hit`: the shadow and occlusion rays every method
+    /// marched instead of the ray set (`rays` is then the ray set they
+    /// were cast from; per-ray figures are per any-hit ray).
+    pub any_hit: Option<AnyHitSetup>,
 }
 
 fn progress(len: u64, what: &str) -> ProgressBar {
@@ -273,6 +285,11 @@ pub struct Plan<'a> {
     /// Sample the scene camera's pixel rays at this resolution instead of
     /// the protocol's rays.
     pub camera: Option<(u32, u32)>,
+    /// Benchmark the any-hit query instead: the scene's shadow and
+    /// occlusion rays cast from the reference's hits of the ray set (both,
+    /// with `DEFAULT_AO_SAMPLES` occlusion rays, where the scene asks for
+    /// neither).
+    pub any_hit: bool,
 }
 
 impl Plan<'_> {
@@ -282,6 +299,11 @@ impl Plan<'_> {
         anyhow::ensure!(!self.methods.is_empty(), "--methods names no marcher");
         anyhow::ensure!(self.rays >= 1, "--rays must be at least 1");
         anyhow::ensure!(self.repeats >= 1, "--repeat must be at least 1");
+        if self.any_hit
+            && let Some(m) = self.methods.iter().find(|m| matches!(m, Method::LinearBisection | Method::Raa))
+        {
+            anyhow::bail!("--any-hit: {m} cannot march shadow and occlusion rays (they start on a surface); leave it out of --methods");
+        }
         Ok(())
     }
 }
@@ -292,16 +314,38 @@ impl Plan<'_> {
 /// accuracy come from the first repeat (marching is deterministic: the
 /// later repeats only time it again).
 pub fn run(ctx: &Arc<Context>, scene: &Scene, plan: &Plan, timeout: std::time::Duration) -> Result<BenchReport> {
-    let Plan { methods, variants, rays, seed, repeats, camera } = *plan;
+    let Plan { methods, variants, rays, seed, repeats, camera, any_hit } = *plan;
     anyhow::ensure!(repeats >= 1, "the benchmark must run at least once");
     // The GPU's coordinates centred on the box the rays aim at (f32).
-    let scene = &scene.recentred(scene.bounds.center());
-    let ray_set = match camera {
+    let mut scene = scene.recentred(scene.bounds.center());
+    if any_hit && !scene.shadows && scene.ao.is_none() {
+        scene.shadows = true;
+        scene.ao = Some(crate::scene::Ao { samples: DEFAULT_AO_SAMPLES, distance: scene.default_ao_distance() });
+    }
+    let scene = &scene;
+    let mut ray_set = match camera {
         None => protocol_rays(&scene.bounds, rays, seed),
         Some((w, h)) => camera_sample(scene, w, h, rays, seed)?,
     };
     let transparent = scene.transparency.is_some();
+    anyhow::ensure!(
+        !(any_hit && transparent),
+        "--any-hit: {} is transparent, and transparent scenes cast no shadow rays (--opaque marches it as an opaque scene)",
+        scene.source
+    );
+    let mut any_hit_setup = None;
+    let mut owners = Vec::new();
+    if any_hit {
+        let cast = any_hit_rays(scene, &ray_set);
+        anyhow::ensure!(!cast.rays.is_empty(), "--any-hit: no ray of the set hits {}, so none casts shadow or occlusion rays", scene.source);
+        any_hit_setup = Some(AnyHitSetup::of(scene, &cast));
+        (ray_set, owners) = (cast.rays, cast.owners);
+    }
     let reference = reference_crossings(scene, &ray_set, !transparent, true);
+    if let Some(setup) = &mut any_hit_setup {
+        setup.reference_occluded = reference.iter().filter(|c| !c.is_empty()).count() as f64 / ray_set.len() as f64;
+    }
+    let options = |variant: Variant| if any_hit { light::any_hit_options(variant.options(scene)) } else { variant.options(scene) };
     let mut renderer = Renderer::new(ctx, scene)?;
     renderer.timeout = timeout;
     let default = variants.first().copied().unwrap_or(Variant { cull: true, quad: scene.marching.quad, generic: false });
@@ -325,12 +369,13 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, plan: &Plan, timeout: std::time::D
                 label.push_str(&format!(" [{}/{repeats}]", repeat + 1));
             }
             if repeat == 0 {
-                let r = run_one(&mut renderer, scene, method, variant, default, &ray_set, &reference, reports.first(), &label)?;
+                let row = Row { method, variant, options: options(variant), default };
+                let r = run_one(&mut renderer, scene, row, &ray_set, &owners, &reference, reports.first(), &label)?;
                 times[i].push(r.ns_per_ray);
                 reports.push(r);
             } else {
                 let bar = progress(rays as u64, &label);
-                let out = renderer.march(method, variant.options(scene), &ray_set, |done| bar.set_position(done as u64))?;
+                let out = renderer.march(method, options(variant), &ray_set, |done| bar.set_position(done as u64))?;
                 bar.finish_and_clear();
                 times[i].push(MarchStats::of(&out.results, out.gpu_ns).ns_per_ray);
             }
@@ -351,36 +396,171 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, plan: &Plan, timeout: std::time::D
         reference_crossings: transparent.then(|| reference.iter().map(Vec::len).sum::<usize>() as f64 / rays.max(1) as f64),
         methods: reports,
         index: renderer.index_stats(),
+        any_hit: any_hit_setup,
     })
 }
 
-/// One row of the benchmark: `method` in `variant` on the ray set.
+/// One row of the benchmark: a method, the variant it runs in and the
+/// march options that makes.
+struct Row {
+    method: Method,
+    variant: Variant,
+    options: MarchOptions,
+    default: Variant,
+}
+
+/// The any-hit rays of `bench --any-hit`: the scene's shadow and occlusion
+/// rays ([`light::spawn`]) cast from the f64 reference's first hit of each
+/// of `primary`, with the field's gradient there as the normal; every
+/// method marches these same rays.
+pub fn any_hit_rays(scene: &Scene, primary: &[GpuRay]) -> light::AnyHitRays {
+    let field = Field::new(scene);
+    let hits: Vec<Option<(f64, DVec3)>> = reference_hits(scene, primary, true)
+        .into_iter()
+        .zip(primary)
+        .map(|(hit, r)| {
+            let ray = Ray::from_gpu(r);
+            hit.map(|t| (t, field.value_gradient(ray.o + t * ray.d).1))
+        })
+        .collect();
+    light::spawn(scene, primary, &hits)
+}
+
+/// What `bench --any-hit` cast.
+#[derive(Clone, Debug, Serialize)]
+pub struct AnyHitSetup {
+    pub shadow_rays: usize,
+    pub ao_rays: usize,
+    /// How far occlusion rays look (`null`: no occlusion rays).
+    pub ao_distance: Option<f64>,
+    /// How far off the surface each starts.
+    pub start_offset: f64,
+    /// The fraction of them the reference finds occluded.
+    pub reference_occluded: f64,
+}
+
+impl AnyHitSetup {
+    fn of(scene: &Scene, cast: &light::AnyHitRays) -> AnyHitSetup {
+        let shadows = cast.owners.iter().filter(|(_, k)| matches!(k, light::Kind::Shadow(_))).count();
+        AnyHitSetup {
+            shadow_rays: shadows,
+            ao_rays: cast.rays.len() - shadows,
+            ao_distance: scene.ao.map(|a| a.distance),
+            start_offset: light::start_offset(scene),
+            reference_occluded: 0.0,
+        }
+    }
+}
+
+/// One method's any-hit figures in `bench --any-hit`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct AnyHitFigures {
+    pub shadow_steps_per_ray: f64,
+    pub ao_steps_per_ray: f64,
+    /// The fraction of rays whose answer (occluded or not) is the
+    /// reference's.
+    pub agreement: f64,
+    /// The others, by cause.
+    pub disagreements: AnyHitDisagreements,
+}
+
+/// Compares any-hit answers with the reference's crossings: a ray is
+/// occluded when the reference finds a crossing on it. A disagreement is
+/// explained when that crossing lies within the minimum step of the ray's
+/// start or end (a minimum step may pass it there, and f32 may start the
+/// ray on the other side), or when the reference's first chord inside the
+/// surface is shorter than the minimum step (a grazing ray: a step forced
+/// to the minimum may pass over it, as on camera rays); the others are
+/// unexplained.
+pub fn any_hit_accuracy(scene: &Scene, rays: &[GpuRay], results: &[GpuResult], reference: &[Vec<f64>]) -> (Accuracy, AnyHitDisagreements) {
+    let min_step = scene.marching.min_step;
+    let field = Field::new(scene);
+    let opts = ReferenceOptions::for_min_radius(scene.min_radius());
+    let (mut a, mut d) = (Accuracy::default(), AnyHitDisagreements::default());
+    for ((gpu, r), reference) in rays.iter().zip(results).zip(reference) {
+        let found = light::occluded(gpu, r);
+        let tr = reference.first().copied();
+        if found == tr.is_some() {
+            continue;
+        }
+        if found {
+            a.false_hits += 1;
+        } else {
+            a.misses += 1;
+        }
+        let ray = Ray::from_gpu(gpu);
+        let Some(tr) = tr else {
+            d.unexplained += 1;
+            continue;
+        };
+        if tr - ray.t0 <= min_step || ray.t1 - tr <= min_step {
+            d.at_ends += 1;
+            continue;
+        }
+        let all = crossings(&field, ray.o, ray.d, ray.t0, ray.t1, opts, false);
+        match all.get(1) {
+            Some(leave) if leave.t - tr < min_step => d.thin += 1,
+            _ => d.unexplained += 1,
+        }
+    }
+    (a, d)
+}
+
+/// The any-hit disagreements with the reference, by cause.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct AnyHitDisagreements {
+    /// The reference's crossing within the minimum step of the ray's
+    /// start or end.
+    pub at_ends: usize,
+    /// Elsewhere, on a chord inside the surface shorter than the minimum
+    /// step.
+    pub thin: usize,
+    /// Neither.
+    pub unexplained: usize,
+}
+
+/// One row of the benchmark on the ray set (`owners`: what each any-hit
+/// ray stands for; empty for camera and protocol rays).
 #[allow(clippy::too_many_arguments)]
 fn run_one(
     renderer: &mut Renderer,
     scene: &Scene,
-    method: Method,
-    variant: Variant,
-    default: Variant,
+    row: Row,
     ray_set: &[GpuRay],
+    owners: &[(usize, light::Kind)],
     reference: &[Vec<f64>],
     first: Option<&MethodReport>,
     label: &str,
 ) -> Result<MethodReport> {
+    let Row { method, variant, options, default } = row;
     let rays = ray_set.len();
     {
         let bar = progress(rays as u64, label);
-        let out = renderer.march(method, variant.options(scene), ray_set, |done| bar.set_position(done as u64))?;
+        let out = renderer.march(method, options, ray_set, |done| bar.set_position(done as u64))?;
         bar.finish_and_clear();
         let stats = MarchStats::of(&out.results, out.gpu_ns);
         let (late, early) = match_window(scene.marching.min_step, scene.refine_tolerance());
-        let (acc, n) = if scene.transparency.is_some() {
+        let mut any_hit = None;
+        let (acc, n) = if options.any_hit {
+            let (acc, disagreements) = any_hit_accuracy(scene, ray_set, &out.results, reference);
+            let (mut shadow, mut ao) = ((0u64, 0u64), (0u64, 0u64));
+            for ((_, kind), r) in owners.iter().zip(&out.results) {
+                let tally = if matches!(kind, light::Kind::Shadow(_)) { &mut shadow } else { &mut ao };
+                *tally = (tally.0 + 1, tally.1 + u64::from(r.counts[0]));
+            }
+            let per = |(rays, steps): (u64, u64)| if rays > 0 { steps as f64 / rays as f64 } else { 0.0 };
+            let n = rays.max(1) as f64;
+            let agreement = 1.0 - (acc.misses + acc.false_hits) as f64 / n;
+            any_hit = Some(AnyHitFigures { shadow_steps_per_ray: per(shadow), ao_steps_per_ray: per(ao), agreement, disagreements });
+            (acc, n)
+        } else if scene.transparency.is_some() {
             (accuracy_all(&out.crossings, reference, late, early), reference.iter().map(Vec::len).sum::<usize>().max(1) as f64)
         } else {
             let first: Vec<Option<f64>> = reference.iter().map(|c| c.first().copied()).collect();
             (accuracy(&out.results, &first, late, early), rays.max(1) as f64)
         };
-        let validity_kept = (method == Method::Quadratic && scene.has_gaussians()).then(|| validity_kept(scene, method, variant.quad, ray_set));
+        let validity_kept =
+            (method == Method::Quadratic && scene.has_gaussians() && !options.any_hit).then(|| validity_kept(scene, method, variant.quad, ray_set));
         Ok(MethodReport {
             method: format!("{method}{}", variant.suffix(&default)),
             steps_per_ray: stats.steps_per_ray,
@@ -403,6 +583,7 @@ fn run_one(
             time_ratio_min: None,
             time_ratio_max: None,
             validity_kept,
+            any_hit,
         })
     }
 }
@@ -479,6 +660,18 @@ pub fn markdown(report: &BenchReport) -> String {
             report.repeats
         ));
     }
+    if let Some(a) = &report.any_hit {
+        s.push_str(&format!(
+            "Any-hit query: {} shadow rays and {} occlusion rays{} cast from the reference's hits of these rays, each starting {:.2e} off \
+             the surface; the reference finds {:.4} of them occluded. Figures are per any-hit ray; a miss is an occluded ray found \
+             clear, a false hit the reverse.\n\n",
+            a.shadow_rays,
+            a.ao_rays,
+            a.ao_distance.map_or(String::new(), |d| format!(" (looking {d} far)")),
+            a.start_offset,
+            a.reference_occluded
+        ));
+    }
     if let Some(c) = report.reference_crossings {
         s.push_str(&format!(
             "Transparent: every crossing to the box exit; the reference finds {c:.3} crossings per ray, and miss and false-hit rates are per reference crossing.\n\n"
@@ -520,6 +713,20 @@ pub fn markdown(report: &BenchReport) -> String {
             m.step_ratio,
             ratio(m),
         ));
+    }
+    if report.any_hit.is_some() {
+        s.push_str(
+            "\n| method | steps/shadow ray | steps/occlusion ray | agreement | disagreements at the ends | on chords under the minimum step | unexplained |\n\
+             |---|---:|---:|---:|---:|---:|---:|\n",
+        );
+        for m in &report.methods {
+            let a = m.any_hit.unwrap_or_default();
+            let d = a.disagreements;
+            s.push_str(&format!(
+                "| {} | {:.2} | {:.2} | {:.5} | {} | {} | {} |\n",
+                m.method, a.shadow_steps_per_ray, a.ao_steps_per_ray, a.agreement, d.at_ends, d.thin, d.unexplained
+            ));
+        }
     }
     if let Some(i) = &report.index {
         s.push_str(&format!("\n{}\n", index_line(i)));

@@ -209,6 +209,7 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
     (11, "SC_REFINE"),
     (12, "SC_HAS_HRBF"),
     (13, "SC_HAS_AFFINE"),
+    (14, "SC_ANY_HIT"),
 ];
 
 /// `SC_INDEX`, whether the kernel walks the spatial index, is a build

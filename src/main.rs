@@ -487,7 +487,7 @@ impl MarchArgs {
             if !(1..=most).contains(&n) {
                 bail!("--ao must be 1 to {most} rays per hit, got {n}");
             }
-            let distance = self.ao_distance.or(scene.ao.map(|a| a.distance)).unwrap_or(4.0 * scene.min_radius());
+            let distance = self.ao_distance.or(scene.ao.map(|a| a.distance)).unwrap_or_else(|| scene.default_ao_distance());
             if !(distance.is_finite() && distance > 0.0) {
                 bail!("--ao-distance must be positive, got {distance}");
             }
@@ -753,6 +753,13 @@ struct BenchArgs {
     /// Top of the shared heatmap scale (default 75, as in the paper).
     #[arg(long, default_value_t = 75)]
     steps_max: u32,
+    /// Benchmark the any-hit query of shadows and ambient occlusion: from
+    /// the f64 reference's first hit of each ray, the scene's shadow and
+    /// occlusion rays (--shadows, --ao N; both, with 8 occlusion rays,
+    /// when the scene and the flags ask for neither), marched by every
+    /// method and compared with the reference's answers ray by ray.
+    #[arg(long)]
+    any_hit: bool,
     #[command(flatten)]
     molecule: MoleculeArgs,
     #[command(flatten)]
@@ -963,6 +970,16 @@ fn render(args: RenderArgs) -> Result<()> {
             s.march.ns_per_turn.map_or("n/a".into(), |v| format!("{v:.1} ns/turn"))
         ))
     );
+    if let Some(a) = s.march.any_hit {
+        eprintln!(
+            "  and {} shadow rays ({:.2} steps/ray), {} occlusion rays ({:.2} steps/ray){}",
+            a.shadow_rays,
+            a.shadow_steps_per_ray,
+            a.ao_rays,
+            a.ao_steps_per_ray,
+            a.gpu_ms.map_or(String::new(), |ms| format!(", GPU {ms:.1} ms"))
+        );
+    }
     finish(&gpu.ctx)
 }
 
@@ -1265,7 +1282,7 @@ fn bench(args: BenchArgs) -> Result<()> {
     let scene = Input::open(&args.scene, args.trajectory.as_deref(), &args.molecule, &args.march, &args.play)?.scene(args.play.frame)?.at_time(0.0);
     let variants = args.variants.variants(&scene);
     let camera = args.camera.map(|(w, h)| if w == 0 { (scene.camera.width, scene.camera.height) } else { (w, h) });
-    let plan = bench::Plan { methods: &methods, variants: &variants, rays, seed: args.seed, repeats: args.repeat, camera };
+    let plan = bench::Plan { methods: &methods, variants: &variants, rays, seed: args.seed, repeats: args.repeat, camera, any_hit: args.any_hit };
     plan.check()?;
     let gpu = args.gpu.open()?;
     let report = bench::run(&gpu.ctx, &scene, &plan, gpu.timeout)?;

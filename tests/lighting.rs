@@ -113,3 +113,150 @@ fn a_spheres_shadow_on_a_plane_is_its_analytic_ellipse_within_a_pixel() {
         assert!(inside > 30 && outside > 5000, "{method}: {inside} pixels checked in the shadow, {outside} outside");
     }
 }
+
+/// Every method that marches any-hit rays: the conservative methods of
+/// Algorithm 1 (the bisection baselines refuse rays that start on a
+/// surface).
+const ANY_HIT_METHODS: [&str; 8] =
+    ["sphere", "segment", "linear-taylor", "quadratic-taylor", "linear", "quadratic", "quadratic-relaxed-t0", "quadratic-relaxed-max"];
+
+#[test]
+fn at_the_foot_of_a_wall_half_the_cosine_weighted_hemisphere_is_occluded() {
+    // Two slabs at a right angle, as the max of two groups (no blend at the
+    // corner): a floor |y| < h and a wall |x| < h, h = sqrt(1 - 0.5^(1/3))
+    // for R = 1 at iso 0.5. Seen from straight above; the box reaches 60
+    // units out so that rays towards the wall meet it before they leave.
+    let dir = scratch("light-wall");
+    let h = (1.0 - 0.5f64.powf(1.0 / 3.0)).sqrt();
+    let (w, x0, x1) = (64usize, 0.0, 4.0);
+    let samples = 32u32;
+    // Each pixel's occluded fraction is a count over the 32 rays of its own
+    // rotation: the error for a half of the hemisphere cut by a plane
+    // through the normal is the largest over rotations of |count/N - 1/2|,
+    // computed here from the renderer's own directions.
+    let mut sampling = 0.0f64;
+    for key in 0..20_000u32 {
+        let toward = (0..samples).filter(|&k| isomarch::render::light::ao_direction(DVec3::Y, k, key.wrapping_mul(2_654_435_761)).x < 0.0);
+        sampling = sampling.max((toward.count() as f64 / f64::from(samples) - 0.5).abs());
+    }
+    // 3/32 for these 32 rays (docs/lighting.md).
+    assert!(sampling <= 3.0 / f64::from(samples), "the R2 set's half-plane error {sampling} is more than 3/N");
+    for method in ANY_HIT_METHODS {
+        let text = format!(
+            r#"Scene(
+    camera: (eye: ({c}, 40.0, 0.0), target: ({c}, 0.0, 0.0), up: (0.0, 0.0, -1.0), fov_y: {fov}, resolution: ({w}, {w})),
+    background: (0.0, 0.0, 0.0),
+    ambient: (1.0, 1.0, 1.0),
+    surface: (0.5, 0.5, 0.5),
+    lights: [(direction: (0.0, 1.0, 0.0), intensity: 0.0)],
+    iso: 0.5,
+    bounds: Some((min: (-60.0, -2.0, -60.0), max: (60.0, 60.0, 60.0))),
+    marching: (method: "{method}", min_step: 0.01),
+    groups: [
+        (primitives: [Plane(normal: (0.0, 1.0, 0.0), offset: 0.0, radius: 1.0)]),
+        (primitives: [Plane(normal: (1.0, 0.0, 0.0), offset: 0.0, radius: 1.0)]),
+    ],
+)"#,
+            c = 0.5 * (x0 + x1),
+            fov = 2.0 * (0.5 * (x1 - x0) / (40.0 - h)).atan().to_degrees(),
+        );
+        let path = dir.join(format!("{method}.ron"));
+        std::fs::write(&path, text).unwrap();
+        let (plain, lit) = (dir.join(format!("{method}.exr")), dir.join(format!("{method}-ao.exr")));
+        run_ok(&["render", path.to_str().unwrap(), "-o", plain.to_str().unwrap()]);
+        let n = samples.to_string();
+        run_ok(&["render", path.to_str().unwrap(), "-o", lit.to_str().unwrap(), "--ao", &n, "--ao-distance", "1000"]);
+        let (plain, lit) = (red(&plain), red(&lit));
+        // The floor column nearest the wall's face x = h: its pixel centres
+        // lie delta from it, and rays towards the wall that pass over it
+        // (leaving the box first) are at most (4/pi) delta / 58 of the
+        // cosine-weighted measure.
+        let pixel = (x1 - x0) / w as f64;
+        let column = (0..w).find(|&i| x0 + (i as f64 + 0.5) * pixel > h).unwrap();
+        let delta = x0 + (column as f64 + 0.5) * pixel - h;
+        let lost = 4.0 / std::f64::consts::PI * delta / 58.0;
+        let mut checked = 0;
+        for row in 2..w - 2 {
+            let i = row * w + column;
+            assert!((f64::from(plain[i]) - 0.5).abs() < 1e-3, "{method}: pixel ({column}, {row}) is not the floor: {}", plain[i]);
+            let ao = f64::from(lit[i]) / f64::from(plain[i]);
+            assert!(
+                (ao - 0.5).abs() <= sampling + lost + 1e-4,
+                "{method}: AO {ao} at ({column}, {row}), {delta} from the wall; 0.5 within {sampling} (sampling) + {lost} (the box)"
+            );
+            checked += 1;
+        }
+        assert!(checked >= 60, "{checked} pixels checked");
+    }
+}
+
+#[test]
+fn any_hit_answers_agree_with_the_f64_reference_ray_by_ray() {
+    // bench --any-hit: shadow and occlusion rays cast from the reference's
+    // hits of 1024 of the camera's rays (128x128), marched by every method
+    // and compared with the reference's crossings on the same rays.
+    let dir = scratch("light-reference");
+    let molecule = repo_root().join("tests/data/molecules/1A8O.pdb");
+    let fig10 = repo_root().join("scenes/fig10.ron");
+    let fig1 = repo_root().join("scenes/fig1.ron");
+    let cases: [(&str, &std::path::Path, &[&str]); 3] = [("fig10", &fig10, &[]), ("fig1", &fig1, &["--opaque"]), ("1A8O", &molecule, &[])];
+    for (name, scene, extra) in cases {
+        let out = dir.join(format!("{name}.json"));
+        let methods = ANY_HIT_METHODS.join(",");
+        let mut args = vec!["bench", scene.to_str().unwrap(), "--any-hit", "--camera", "128x128", "--rays", "1024"];
+        args.extend_from_slice(&["--methods", &methods, "--json", out.to_str().unwrap()]);
+        args.extend_from_slice(extra);
+        run_ok(&args);
+        let report = json(&out);
+        let setup = &report["any_hit"];
+        let (shadow, ao) = (setup["shadow_rays"].as_u64().unwrap(), setup["ao_rays"].as_u64().unwrap());
+        let occluded = setup["reference_occluded"].as_f64().unwrap();
+        assert!(shadow > 100 && ao > 1000, "{name}: {shadow} shadow rays and {ao} occlusion rays");
+        assert!(occluded > 0.02 && occluded < 0.98, "{name}: the reference finds {occluded} of the rays occluded");
+        for m in report["methods"].as_array().unwrap() {
+            let a = &m["any_hit"];
+            let agreement = a["agreement"].as_f64().unwrap();
+            let d = &a["disagreements"];
+            assert!(agreement >= 0.995, "{name}, {}: {agreement} of the answers agree", m["method"]);
+            assert_eq!(d["unexplained"].as_u64(), Some(0), "{name}, {}: disagreements {d}", m["method"]);
+        }
+    }
+}
+
+#[test]
+fn shadow_and_occlusion_rays_are_counted_apart_in_the_statistics_and_the_batch_csv() {
+    let dir = scratch("light-stats");
+    let path = dir.join("plane.ron");
+    std::fs::write(&path, scene_text("quadratic-taylor", false, DVec3::new(0.3, 1.0, 0.2).normalize())).unwrap();
+    let stats = dir.join("stats.json");
+    let png = dir.join("plane.png");
+    let args = ["--size", "32x32", "--shadows", "--ao", "4"];
+    run_ok(&[&["render", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "--stats", stats.to_str().unwrap()][..], &args[..]].concat());
+    let s = json(&stats);
+    // The plane fills the frame and faces the light: every pixel casts one
+    // shadow ray and four occlusion rays, apart from the camera rays.
+    assert_eq!(s["rays"].as_u64(), Some(32 * 32));
+    assert_eq!(s["hit_rate"].as_f64(), Some(1.0));
+    let a = &s["any_hit"];
+    assert_eq!((a["shadow_rays"].as_u64(), a["ao_rays"].as_u64()), (Some(32 * 32), Some(4 * 32 * 32)), "{a}");
+    assert!(a["shadow_steps_per_ray"].as_f64().unwrap() >= 1.0 && a["ao_steps_per_ray"].as_f64().unwrap() >= 1.0, "{a}");
+    // Without them, the section is null.
+    run_ok(&["render", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "32x32", "--stats", stats.to_str().unwrap()]);
+    assert!(json(&stats)["any_hit"].is_null());
+    // The batch CSV's last three columns.
+    let frames = dir.join("f_#.png");
+    let csv = dir.join("frames.csv");
+    run_ok(
+        &[&["render", path.to_str().unwrap(), "-o", frames.to_str().unwrap(), "--frames", "0..2", "--csv", csv.to_str().unwrap()][..], &args[..]]
+            .concat(),
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert!(lines.next().unwrap().ends_with(",shadow_steps_per_ray,ao_steps_per_ray,any_hit_gpu_ms"));
+    for line in lines {
+        let cells: Vec<&str> = line.rsplitn(4, ',').collect();
+        let shadow: f64 = cells[2].parse().unwrap_or_else(|_| panic!("{line}"));
+        let ao: f64 = cells[1].parse().unwrap_or_else(|_| panic!("{line}"));
+        assert!(shadow >= 1.0 && ao >= 1.0, "{line}");
+    }
+}

@@ -287,15 +287,18 @@ class Renderer:
         seed: int = 20230601,
         repeat: int = 1,
         camera: Optional[Tuple[int, int]] = None,
+        any_hit: bool = False,
     ) -> dict:
         """``isomarch bench``: each method (default: the scene's) on the
         same seeded rays of the benchmark protocol (or ``camera=(w, h)``: a
         sample of that frame's pixel rays), against the f64 reference. The
         report as ``bench --json`` writes it; its rows are
         ``report["methods"]`` (:func:`to_dataframe` makes a pandas
-        DataFrame of them)."""
+        DataFrame of them). ``any_hit=True`` benchmarks the shadow and
+        occlusion rays cast from the reference's hits instead
+        (``bench --any-hit``)."""
         methods = [scene.method] if methods is None else [str(m) for m in methods]
-        return json.loads(self._native.bench(scene._native, methods, int(rays), int(seed), int(repeat), camera))
+        return json.loads(self._native.bench(scene._native, methods, int(rays), int(seed), int(repeat), camera, bool(any_hit)))
 
     def tradeoff(
         self,

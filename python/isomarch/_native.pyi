@@ -38,7 +38,14 @@ class NativeRenderer:
         self, scene: NativeScene, width: int, height: int, method: Optional[str], time: float, samples: Optional[int]
     ) -> dict: ...
     def bench(
-        self, scene: NativeScene, methods: list, rays: int, seed: int, repeats: int, camera: Optional[Tuple[int, int]]
+        self,
+        scene: NativeScene,
+        methods: list,
+        rays: int,
+        seed: int,
+        repeats: int,
+        camera: Optional[Tuple[int, int]],
+        any_hit: bool,
     ) -> str: ...
     def tradeoff(
         self, scene: NativeScene, methods: list, min_steps: list, max_steps: list, rays: int, seed: int

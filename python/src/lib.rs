@@ -270,15 +270,16 @@ impl NativeRenderer {
         seed: u64,
         repeats: usize,
         camera: Option<(u32, u32)>,
+        any_hit: bool,
     ) -> PyResult<String> {
         let methods = parse_methods(&methods)?;
         let posed = scene.scene.at_time(0.0);
         let variants = [isomarch::bench::Variant { cull: true, quad: posed.marching.quad, generic: false }];
-        isomarch::bench::Plan { methods: &methods, variants: &variants, rays, seed, repeats, camera }.check().map_err(raise)?;
+        isomarch::bench::Plan { methods: &methods, variants: &variants, rays, seed, repeats, camera, any_hit }.check().map_err(raise)?;
         let (ctx, timeout) = (Arc::clone(&self.ctx), self.timeout);
         let report = py
             .detach(move || {
-                let plan = isomarch::bench::Plan { methods: &methods, variants: &variants, rays, seed, repeats, camera };
+                let plan = isomarch::bench::Plan { methods: &methods, variants: &variants, rays, seed, repeats, camera, any_hit };
                 isomarch::bench::run(&ctx, &posed, &plan, timeout)
             })
             .map_err(raise)?;

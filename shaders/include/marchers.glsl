@@ -181,6 +181,11 @@ void step_apply(vec3 o, vec3 u, float tmax, StepEval e, inout March m) {
     bool inside = (m.flags & FLAG_INSIDE) != 0u;
     if (inside ? f <= 0.0 : f >= 0.0) {
         m.flags |= FLAG_HIT;
+        // An any-hit query has its answer: there is a crossing in (t_prev, t].
+        if (SC_ANY_HIT != 0u) {
+            m.flags |= FLAG_DONE;
+            return;
+        }
         if (m.steps > 1u) {
             begin_refinement(m.t_prev, m.f_prev, m.t, f, !inside, m);
             if (SC_TRANSPARENT == 0u) return;
@@ -196,6 +201,12 @@ void step_apply(vec3 o, vec3 u, float tmax, StepEval e, inout March m) {
         // f < 0 up to the upper bound's root, f >= 0 at the lower one's.
         float rb = m.t + e.cross;
         m.flags |= FLAG_HIT;
+        if (SC_ANY_HIT != 0u) {
+            // Proven without a step to it: the answer of an any-hit query.
+            m.t = rb;
+            m.flags |= FLAG_DONE;
+            return;
+        }
         begin_refinement(min(m.t + step, rb), 0.0, rb, 0.0, true, m);
         return;
     }

@@ -208,6 +208,10 @@ pub struct MarchStats {
     pub ns_per_eval: Option<f64>,
     /// GPU time per loop turn.
     pub ns_per_turn: Option<f64>,
+    /// The shadow and occlusion rays cast from the hits (`null` when none
+    /// was cast): their steps apart from the camera rays' above, and their
+    /// GPU time apart from `gpu_ms`.
+    pub any_hit: Option<crate::render::light::AnyHitStats>,
 }
 
 impl MarchStats {

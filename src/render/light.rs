@@ -23,17 +23,55 @@ use anyhow::{Result, bail};
 use glam::DVec3;
 
 use super::{MarchOptions, MarchOutput, Renderer};
-use crate::layout::{FLAG_HIT, GpuRay};
+use crate::layout::{FLAG_HIT, GpuRay, GpuResult};
 use crate::method::Method;
 use crate::scene::Scene;
 
 /// What the any-hit rays cost.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LightStats {
     pub shadow_rays: u64,
     pub shadow_steps: u64,
     pub ao_rays: u64,
     pub ao_steps: u64,
+    /// GPU time of their march (`None` without timestamps).
+    pub gpu_ns: Option<f64>,
+}
+
+impl LightStats {
+    /// Adds `other`'s rays, steps and time (time stays `None` once either
+    /// has none).
+    pub fn add(&mut self, other: &LightStats) {
+        self.shadow_rays += other.shadow_rays;
+        self.shadow_steps += other.shadow_steps;
+        self.ao_rays += other.ao_rays;
+        self.ao_steps += other.ao_steps;
+        self.gpu_ns = self.gpu_ns.zip(other.gpu_ns).map(|(a, b)| a + b);
+    }
+
+    /// Per-ray figures, `None` when no any-hit ray was cast.
+    pub fn summary(&self) -> Option<AnyHitStats> {
+        let per = |steps: u64, rays: u64| if rays > 0 { steps as f64 / rays as f64 } else { 0.0 };
+        (self.shadow_rays + self.ao_rays > 0).then(|| AnyHitStats {
+            shadow_rays: self.shadow_rays,
+            shadow_steps_per_ray: per(self.shadow_steps, self.shadow_rays),
+            ao_rays: self.ao_rays,
+            ao_steps_per_ray: per(self.ao_steps, self.ao_rays),
+            gpu_ms: self.gpu_ns.map(|ns| ns * 1e-6),
+        })
+    }
+}
+
+/// The shadow and occlusion rays of a frame, in `render --stats` and the
+/// batch CSV.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct AnyHitStats {
+    pub shadow_rays: u64,
+    pub shadow_steps_per_ray: f64,
+    pub ao_rays: u64,
+    pub ao_steps_per_ray: f64,
+    /// GPU time of their march, apart from the camera rays' `gpu_ms`.
+    pub gpu_ms: Option<f64>,
 }
 
 /// The unlit colour a shaded hit returns in `crossings.w`.
@@ -78,45 +116,75 @@ pub fn start_offset(scene: &Scene) -> f64 {
     10.0 * scene.refine_tolerance()
 }
 
-/// Applies `scene`'s shadows and ambient occlusion to the shaded opaque
-/// results `out` of `rays`, marching their any-hit rays with `method`.
-pub fn apply(renderer: &mut Renderer, method: Method, options: MarchOptions, rays: &[GpuRay], out: &mut MarchOutput) -> Result<LightStats> {
-    let scene = renderer.scene().clone();
-    if !(scene.shadows || scene.ao.is_some()) || !options.shade || scene.transparency.is_some() {
-        return Ok(LightStats::default());
-    }
-    if matches!(method, Method::LinearBisection | Method::Raa) {
-        bail!("{method} cannot march shadow and occlusion rays (they start on a surface); use an Algorithm 1 method");
-    }
-    let eps = start_offset(&scene);
-    // Each any-hit ray: its pixel's result, and what it stands for.
-    enum Kind {
-        Shadow(usize),
-        Ao,
-    }
-    let (mut spawned, mut owners) = (Vec::new(), Vec::new());
-    for (i, (ray, r)) in rays.iter().zip(&out.results).enumerate() {
-        if ray.d[3] < ray.o[3] || r.counts[3] & FLAG_HIT == 0 {
-            continue;
-        }
-        let n = DVec3::new(r.hit[0].into(), r.hit[1].into(), r.hit[2].into());
-        if n == DVec3::ZERO {
+/// What an any-hit ray answers for: the shadow of light `j`, or occlusion
+/// sample `k`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    Shadow(usize),
+    Ao(u32),
+}
+
+/// The any-hit rays of a batch of camera rays: each with the index of the
+/// camera ray it was cast from and what it answers for.
+#[derive(Clone, Debug, Default)]
+pub struct AnyHitRays {
+    pub rays: Vec<GpuRay>,
+    pub owners: Vec<(usize, Kind)>,
+}
+
+/// Does `scene` cast any-hit rays from its hits when marched `options`?
+pub fn wanted(scene: &Scene, options: &MarchOptions) -> bool {
+    (scene.shadows || scene.ao.is_some()) && options.shade && scene.transparency.is_none()
+}
+
+/// The march options of any-hit rays cast by a march with `options`.
+pub fn any_hit_options(options: MarchOptions) -> MarchOptions {
+    MarchOptions { transparent: false, secondary: false, any_hit: true, shade: false, ..options }
+}
+
+/// The side of a surface of normal `n` (either orientation) that a ray of
+/// direction `u` sees.
+fn facing(n: DVec3, u: DVec3) -> DVec3 {
+    if n.dot(u) > 0.0 { -n } else { n }
+}
+
+/// The rays from `hits[i]` (the distance along camera ray `i` and the
+/// surface normal there, either orientation; `None`: no hit) towards each
+/// light the surface faces (`scene.shadows`) and over its hemisphere
+/// (`scene.ao`), light by light and sample by sample; each starts [`start_offset`] off the
+/// surface on the side the camera ray sees and ends at the scene's box (a
+/// shadow ray) or `ao.distance` along it. The GPU frame and the f64
+/// reference cast them alike, so that they can be compared ray by ray.
+pub fn spawn(scene: &Scene, rays: &[GpuRay], hits: &[Option<(f64, DVec3)>]) -> AnyHitRays {
+    let eps = start_offset(scene);
+    // One batch per light and per occlusion sample, each in camera-ray
+    // order: neighbouring lanes then march neighbouring rays in one
+    // direction, which lavapipe's 8-lane loops need to stay short.
+    let samples = scene.ao.map_or(0, |a| a.samples as usize);
+    let mut batches = vec![AnyHitRays::default(); scene.lights.len() + samples];
+    for (i, (ray, hit)) in rays.iter().zip(hits).enumerate() {
+        let Some((t, n)) = *hit else { continue };
+        if ray.d[3] < ray.o[3] || n == DVec3::ZERO {
             continue;
         }
         let o = DVec3::new(ray.o[0].into(), ray.o[1].into(), ray.o[2].into());
         let u = DVec3::new(ray.d[0].into(), ray.d[1].into(), ray.d[2].into());
-        let facing = if n.dot(u) > 0.0 { -n } else { n };
-        let start = o + f64::from(r.hit[3]) * u + eps * facing;
-        let mut spawn = |dir: DVec3, reach: f64, kind: Kind| {
+        let facing = facing(n, u);
+        let start = o + t * u + eps * facing;
+        let mut cast = |dir: DVec3, reach: f64, kind: Kind| {
             let (t0, t1) = scene.bounds.clip_ray(start, dir).unwrap_or((1.0, 0.0));
             let f = |v: DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
-            spawned.push(GpuRay { o: f(start, t0.max(0.0)), d: f(dir, t1.min(reach)) });
-            owners.push((i, kind));
+            let batch = match kind {
+                Kind::Shadow(j) => &mut batches[j],
+                Kind::Ao(k) => &mut batches[scene.lights.len() + k as usize],
+            };
+            batch.rays.push(GpuRay { o: f(start, t0.max(0.0)), d: f(dir, t1.min(reach)) });
+            batch.owners.push((i, kind));
         };
         if scene.shadows {
             for (j, l) in scene.lights.iter().enumerate() {
                 if facing.dot(l.direction) > 0.0 {
-                    spawn(l.direction, f64::INFINITY, Kind::Shadow(j));
+                    cast(l.direction, f64::INFINITY, Kind::Shadow(j));
                 }
             }
         }
@@ -125,48 +193,72 @@ pub fn apply(renderer: &mut Renderer, method: Method, options: MarchOptions, ray
             // this batch: the viewer's tiles and a whole frame cast the same.
             let key = ray.d[0].to_bits() ^ ray.d[1].to_bits().rotate_left(11) ^ ray.d[2].to_bits().rotate_left(22);
             for k in 0..ao.samples {
-                spawn(ao_direction(facing, k, key), ao.distance, Kind::Ao);
+                cast(ao_direction(facing, k, key), ao.distance, Kind::Ao(k));
             }
         }
     }
+    let mut out = AnyHitRays::default();
+    for b in batches {
+        out.rays.extend(b.rays);
+        out.owners.extend(b.owners);
+    }
+    out
+}
+
+/// Is any-hit ray `ray` answered "occluded" by its result `m`?
+pub fn occluded(ray: &GpuRay, m: &GpuResult) -> bool {
+    ray.d[3] >= ray.o[3] && m.counts[3] & FLAG_HIT != 0
+}
+
+/// Applies `scene`'s shadows and ambient occlusion to the shaded opaque
+/// results `out` of `rays`, marching their any-hit rays with `method`.
+pub fn apply(renderer: &mut Renderer, method: Method, options: MarchOptions, rays: &[GpuRay], out: &mut MarchOutput) -> Result<LightStats> {
+    let scene = renderer.scene().clone();
+    if !wanted(&scene, &options) {
+        return Ok(LightStats::default());
+    }
+    if matches!(method, Method::LinearBisection | Method::Raa) {
+        bail!("{method} cannot march shadow and occlusion rays (they start on a surface); use an Algorithm 1 method");
+    }
+    let normal = |r: &GpuResult| DVec3::new(r.hit[0].into(), r.hit[1].into(), r.hit[2].into());
+    let hits: Vec<Option<(f64, DVec3)>> =
+        out.results.iter().map(|r| (r.counts[3] & FLAG_HIT != 0).then(|| (f64::from(r.hit[3]), normal(r)))).collect();
+    let any = spawn(&scene, rays, &hits);
     let mut stats = LightStats::default();
-    if spawned.is_empty() {
+    if any.rays.is_empty() {
         return Ok(stats);
     }
-    let any_hit = MarchOptions { transparent: false, secondary: true, shade: false, ..options };
-    let marched = renderer.march(method, any_hit, &spawned, |_| {})?;
-    out.gpu_ns = out.gpu_ns.zip(marched.gpu_ns).map(|(a, b)| a + b);
-    let mut occluded = vec![0u32; out.results.len()];
+    let marched = renderer.march(method, any_hit_options(options), &any.rays, |_| {})?;
+    stats.gpu_ns = marched.gpu_ns;
+    let mut hidden = vec![0u32; out.results.len()];
     let mut dark = vec![DVec3::ZERO; out.results.len()];
-    for ((ray, (i, kind)), m) in spawned.iter().zip(&owners).zip(&marched.results) {
-        let hit = ray.d[3] >= ray.o[3] && m.counts[3] & FLAG_HIT != 0;
+    for ((ray, &(i, kind)), m) in any.rays.iter().zip(&any.owners).zip(&marched.results) {
+        let hit = occluded(ray, m);
         match kind {
             Kind::Shadow(j) => {
                 stats.shadow_rays += 1;
                 stats.shadow_steps += u64::from(m.counts[0]);
                 if hit {
-                    let r = &out.results[*i];
-                    let u = DVec3::new(rays[*i].d[0].into(), rays[*i].d[1].into(), rays[*i].d[2].into());
-                    let n = DVec3::new(r.hit[0].into(), r.hit[1].into(), r.hit[2].into());
-                    let facing = if n.dot(u) > 0.0 { -n } else { n };
-                    let l = &scene.lights[*j];
-                    dark[*i] += light_terms(unpack_base(r.crossings[3]), facing, u, l.direction, l.color);
+                    let r = &out.results[i];
+                    let u = DVec3::new(rays[i].d[0].into(), rays[i].d[1].into(), rays[i].d[2].into());
+                    let l = &scene.lights[j];
+                    dark[i] += light_terms(unpack_base(r.crossings[3]), facing(normal(r), u), u, l.direction, l.color);
                 }
             }
-            Kind::Ao => {
+            Kind::Ao(_) => {
                 stats.ao_rays += 1;
                 stats.ao_steps += u64::from(m.counts[0]);
-                occluded[*i] += u32::from(hit);
+                hidden[i] += u32::from(hit);
             }
         }
     }
     for (i, r) in out.results.iter_mut().enumerate() {
         let mut take = dark[i];
         if let Some(ao) = scene.ao
-            && occluded[i] > 0
+            && hidden[i] > 0
         {
             let base = unpack_base(r.crossings[3]);
-            take += base * scene.ambient * (f64::from(occluded[i]) / f64::from(ao.samples));
+            take += base * scene.ambient * (f64::from(hidden[i]) / f64::from(ao.samples));
         }
         if take != DVec3::ZERO {
             for (c, t) in r.color.iter_mut().zip(take.to_array()) {

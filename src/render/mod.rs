@@ -51,6 +51,7 @@ struct PipelineKey {
     extension: bool,
     transparent: bool,
     secondary: bool,
+    any_hit: bool,
     generic: bool,
     refine: Refinement,
 }
@@ -66,6 +67,7 @@ impl PipelineKey {
             extension: options.quad.extension,
             transparent: options.transparent,
             secondary: options.secondary,
+            any_hit: options.any_hit,
             generic: options.generic,
             refine: options.refine,
         }
@@ -158,6 +160,9 @@ pub struct MarchOutput {
     /// GPU time from timestamp queries, summed over tiles (`None` when the
     /// device has no timestamps).
     pub gpu_ns: Option<f64>,
+    /// The shadow and occlusion rays cast from the hits, marched after
+    /// them (`light::apply`; their GPU time is not in `gpu_ns`).
+    pub light: light::LightStats,
 }
 
 /// How one call marches: the settings that pick a pipeline's
@@ -183,6 +188,10 @@ pub struct MarchOptions {
     /// side is the field's sign at the start, and the march stops at the
     /// first sign change (entering or leaving).
     pub secondary: bool,
+    /// Any-hit rays (shadows, occlusion): the march ends at the first sign
+    /// change it brackets or proves, unrefined, and the hit has no normal.
+    /// Its `hit.w` is then only a point past which the crossing cannot lie.
+    pub any_hit: bool,
     /// Compile pipelines for any scene: every primitive kind and the max of
     /// groups kept in, instead of only what this scene uses (to measure
     /// what specialisation buys; results are identical).
@@ -203,6 +212,7 @@ impl MarchOptions {
             quad: scene.marching.quad,
             transparent: scene.transparency.is_some(),
             secondary: false,
+            any_hit: false,
             generic: false,
             refine: scene.marching.refine,
         }
@@ -334,6 +344,7 @@ fn specialization(scene: &Scene, method: Method, key: &PipelineKey, indexed: boo
         ("SC_EXTENSION", u32::from(key.extension)),
         ("SC_TRANSPARENT", u32::from(key.transparent)),
         ("SC_SECONDARY", u32::from(key.secondary)),
+        ("SC_ANY_HIT", u32::from(key.any_hit)),
         ("SC_REFINE", key.refine.shader_id()),
     ];
     values
@@ -656,7 +667,7 @@ impl Renderer {
         if method.inverts() {
             Inversion::of_field(&Field::new(&self.scene)).map_err(|e| anyhow::anyhow!("{}: {e}", self.scene.source))?;
         }
-        if (options.transparent || options.secondary) && matches!(method, Method::LinearBisection | Method::Raa) {
+        if (options.transparent || options.secondary || options.any_hit) && matches!(method, Method::LinearBisection | Method::Raa) {
             bail!(
                 "{method} marches opaque scenes only: its bisection looks for a first entering crossing; use an Algorithm 1 method for transparency, reflection and refraction"
             );
@@ -691,6 +702,6 @@ impl Renderer {
             results.extend(tile_results);
             progress(results.len());
         }
-        Ok(MarchOutput { results, crossings, gpu_ns })
+        Ok(MarchOutput { results, crossings, gpu_ns, light: light::LightStats::default() })
     }
 }

@@ -157,7 +157,9 @@ pub const SAMPLE_SEED: u32 = 1;
 /// through each pixel's centre, or more at [`subpixel`] positions, whose
 /// colours are averaged in linear light (a box filter over the pixel).
 /// Steps, evaluations and turns are summed over a pixel's samples; its
-/// depth and normal are its first sample's. Statistics count every ray.
+/// depth and normal are its first sample's. Statistics count every
+/// camera ray; the shadow and occlusion rays are counted apart
+/// (`MarchStats::any_hit`).
 pub fn march_image(
     renderer: &mut Renderer,
     method: Method,
@@ -172,10 +174,12 @@ pub fn march_image(
     let mut sums = if n > 1 { vec![[0f64; 3]; (width * height) as usize] } else { Vec::new() };
     let mut marched = Vec::new();
     let mut gpu_ns = Some(0.0);
+    let mut light = super::light::LightStats { gpu_ns: Some(0.0), ..Default::default() };
     for s in 0..n {
         let (rays, pixels) = camera_rays_through(&scene.camera, width, height, &scene.bounds, |p| subpixel(p, s, n, SAMPLE_SEED));
         let out = march_frame(renderer, method, options, &rays)?;
         gpu_ns = gpu_ns.zip(out.gpu_ns).map(|(a, b)| a + b);
+        light.add(&out.light);
         let frame = Frame::from_results(width, height, &out.results, &pixels);
         for (sum, p) in sums.iter_mut().zip(&frame.pixels) {
             for (s, c) in sum.iter_mut().zip(p.color) {
@@ -207,7 +211,8 @@ pub fn march_image(
         }
     }
     // One sample: the frame's pixels are its rays' results.
-    let stats = if n > 1 { MarchStats::of(marched.iter(), gpu_ns) } else { MarchStats::of(image.pixels.iter(), gpu_ns) };
+    let mut stats = if n > 1 { MarchStats::of(marched.iter(), gpu_ns) } else { MarchStats::of(image.pixels.iter(), gpu_ns) };
+    stats.any_hit = light.summary();
     Ok((image, stats))
 }
 
@@ -227,7 +232,7 @@ pub fn march_frame(renderer: &mut Renderer, method: Method, options: MarchOption
     });
     let Some(material) = dielectric else {
         let mut out = renderer.march(method, options, rays, |_| {})?;
-        super::light::apply(renderer, method, options, rays, &mut out)?;
+        out.light = super::light::apply(renderer, method, options, rays, &mut out)?;
         return Ok(out);
     };
     let traced = super::optics::trace(renderer, method, options, rays, material)?;
@@ -240,7 +245,7 @@ pub fn march_frame(renderer: &mut Renderer, method: Method, options: MarchOption
         r.crossings[1] = traced.visits[i];
         r.crossings[2] = traced.turns[i];
     }
-    Ok(super::MarchOutput { results, crossings: Vec::new(), gpu_ns: traced.gpu_ns })
+    Ok(super::MarchOutput { results, crossings: Vec::new(), gpu_ns: traced.gpu_ns, light: Default::default() })
 }
 
 /// Renders and writes every requested file. All files are encoded before

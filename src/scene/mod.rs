@@ -250,6 +250,12 @@ impl Scene {
         self.groups.iter().flatten()
     }
 
+    /// How far occlusion rays look when neither the scene file nor the
+    /// command line says: 4 times the smallest primitive radius.
+    pub fn default_ao_distance(&self) -> f64 {
+        4.0 * self.min_radius()
+    }
+
     /// The smallest support radius or Gaussian scale: the length that sets
     /// refinement tolerances.
     pub fn min_radius(&self) -> f64 {
