@@ -39,7 +39,8 @@ void main() {
     float from = bisects ? ray.o.w : m.t_prev;
     // A transparent march steps on while it refines a crossing behind.
     if ((m.flags & FLAG_REFINING) != 0u) from = min(from, m.ra);
-    cull_to_ray(o, u, from, ray.d.w);
+    // A ray that misses the box is done before it starts: no culling.
+    if ((m.flags & FLAG_DONE) == 0u) cull_to_ray(o, u, from, ray.d.w);
     // One step or one evaluation of a refinement per turn (slice_steps turns).
     for (uint k = 0u; k < push.slice_steps && (m.flags & FLAG_DONE) == 0u; ++k) {
         turns += 1u;

@@ -59,6 +59,8 @@ uvec4 prim_texel(uint i, uint k) {
 // The flat list (scenes of at most 64 primitives, a few loads a step)
 // reads the storage buffer: a pipeline with texel fetches takes lavapipe
 // about a second longer to build, which only the index's scenes repay.
+// The culling below, a pass over every primitive for every ray, reads
+// texels all the same: on fig10 it was most of what a short ray costs.
 GpuPrimitive load_prim(uint i) {
     if (SC_INDEX == 0u) return prims[i];
     return GpuPrimitive(uintBitsToFloat(prim_texel(i, 0u)), uintBitsToFloat(prim_texel(i, 1u)), uintBitsToFloat(prim_texel(i, 2u)),
@@ -93,12 +95,17 @@ bool meets_ray(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
 
 // Sets g_mask to the primitives whose support meets o + t u, t in [ta, tb].
 // Only with SC_CULL, which the host sets for scenes of at most 64
-// primitives. This is the flat cursor's set-up, not an evaluation.
+// primitives. This is the flat cursor's set-up, not an evaluation; it
+// reads only the texels meets_ray uses (a, b, ids).
 void cull_to_ray(vec3 o, vec3 u, float ta, float tb) {
     if (SC_CULL == 0u) return;
     g_mask = uvec2(0u);
     for (uint i = 0u; i < globals.sizes.x; ++i) {
-        if (meets_ray(load_prim(i), o, u, ta, tb)) g_mask[i >> 5u] |= 1u << (i & 31u);
+        GpuPrimitive pr;
+        pr.a = uintBitsToFloat(prim_texel(i, 0u));
+        pr.b = uintBitsToFloat(prim_texel(i, 1u));
+        pr.ids = prim_texel(i, 3u);
+        if (meets_ray(pr, o, u, ta, tb)) g_mask[i >> 5u] |= 1u << (i & 31u);
     }
 }
 
