@@ -335,8 +335,10 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, plan: &Plan, timeout: std::time::D
     );
     let mut any_hit_setup = None;
     let mut owners = Vec::new();
+    let mut primary_hit_rate = None;
     if any_hit {
-        let cast = any_hit_rays(scene, &ray_set);
+        let (cast, first) = any_hit_rays(scene, &ray_set);
+        primary_hit_rate = Some(first.iter().filter(|h| h.is_some()).count() as f64 / rays.max(1) as f64);
         anyhow::ensure!(!cast.rays.is_empty(), "--any-hit: no ray of the set hits {}, so none casts shadow or occlusion rays", scene.source);
         any_hit_setup = Some(AnyHitSetup::of(scene, &cast));
         (ray_set, owners) = (cast.rays, cast.owners);
@@ -392,7 +394,8 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, plan: &Plan, timeout: std::time::D
         repeats,
         min_step: scene.marching.min_step,
         max_steps: scene.marching.max_steps,
-        reference_hit_rate: ref_hits as f64 / rays.max(1) as f64,
+        // With --any-hit, of the rays they were cast from.
+        reference_hit_rate: primary_hit_rate.unwrap_or(ref_hits as f64 / rays.max(1) as f64),
         reference_crossings: transparent.then(|| reference.iter().map(Vec::len).sum::<usize>() as f64 / rays.max(1) as f64),
         methods: reports,
         index: renderer.index_stats(),
@@ -413,17 +416,19 @@ struct Row {
 /// rays ([`light::spawn`]) cast from the f64 reference's first hit of each
 /// of `primary`, with the field's gradient there as the normal; every
 /// method marches these same rays.
-pub fn any_hit_rays(scene: &Scene, primary: &[GpuRay]) -> light::AnyHitRays {
+pub fn any_hit_rays(scene: &Scene, primary: &[GpuRay]) -> (light::AnyHitRays, Vec<Option<f64>>) {
     let field = Field::new(scene);
-    let hits: Vec<Option<(f64, DVec3)>> = reference_hits(scene, primary, true)
-        .into_iter()
+    let first = reference_hits(scene, primary, true);
+    let hits: Vec<Option<(f64, DVec3)>> = first
+        .iter()
+        .copied()
         .zip(primary)
         .map(|(hit, r)| {
             let ray = Ray::from_gpu(r);
             hit.map(|t| (t, field.value_gradient(ray.o + t * ray.d).1))
         })
         .collect();
-    light::spawn(scene, primary, &hits)
+    (light::spawn(scene, primary, &hits), first)
 }
 
 /// What `bench --any-hit` cast.

@@ -253,6 +253,20 @@ impl NativeRenderer {
         s.set_item("max_steps_taken", stats.max_steps_taken)?;
         s.set_item("gpu_ms", stats.gpu_ms)?;
         s.set_item("ns_per_ray", stats.ns_per_ray)?;
+        // The shadow and occlusion rays, as `render --stats` writes them.
+        let any_hit = match stats.any_hit {
+            Some(a) => {
+                let d = PyDict::new(py);
+                d.set_item("shadow_rays", a.shadow_rays)?;
+                d.set_item("shadow_steps_per_ray", a.shadow_steps_per_ray)?;
+                d.set_item("ao_rays", a.ao_rays)?;
+                d.set_item("ao_steps_per_ray", a.ao_steps_per_ray)?;
+                d.set_item("gpu_ms", a.gpu_ms)?;
+                Some(d)
+            }
+            None => None,
+        };
+        s.set_item("any_hit", any_hit)?;
         out.set_item("stats", s)?;
         Ok(out)
     }

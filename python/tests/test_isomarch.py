@@ -187,6 +187,29 @@ def test_bench_rows_equal_the_clis(renderer, tmp_path):
         renderer.bench(isomarch.Scene.load(ROOT / "scenes/fig10.ron"), ["nope"])
 
 
+def test_any_hit_bench_and_render_statistics_equal_the_clis(renderer, tmp_path):
+    path = tmp_path / "any-hit.json"
+    methods = ["segment", "quadratic-taylor"]
+    cli("bench", ROOT / "scenes/fig10.ron", "--any-hit", "--methods", ",".join(methods), "--rays", "512", "--json", path)
+    expected = json.loads(path.read_text())
+    report = renderer.bench(isomarch.Scene.load(ROOT / "scenes/fig10.ron"), methods, rays=512, any_hit=True)
+    assert report["any_hit"] == expected["any_hit"] and report["any_hit"]["ao_rays"] > 0
+    for mine, theirs in zip(report["methods"], expected["methods"]):
+        assert mine["any_hit"] == theirs["any_hit"], mine["method"]
+        assert mine["steps_per_ray"] == theirs["steps_per_ray"], mine["method"]
+    # A scene that asks for shadows and occlusion reports their rays apart.
+    text = (ROOT / "scenes/fig10.ron").read_text().replace("Scene(", "Scene(\n    shadows: true,\n    ao: (samples: 4, distance: 2.0),", 1)
+    lit = tmp_path / "lit.ron"
+    lit.write_text(text)
+    stats = tmp_path / "stats.json"
+    cli("render", lit, "-o", tmp_path / "lit.png", "--size", "48x48", "--stats", stats)
+    image = renderer.render(isomarch.Scene.load(lit), size=(48, 48))
+    theirs = json.loads(stats.read_text())["any_hit"]
+    mine = image.stats["any_hit"]
+    assert mine["ao_rays"] == theirs["ao_rays"] > 0 and mine["shadow_rays"] == theirs["shadow_rays"] > 0
+    assert mine["ao_steps_per_ray"] == theirs["ao_steps_per_ray"]
+
+
 def test_tradeoff_rows_equal_the_clis_csv(renderer, tmp_path):
     cli("tradeoff", ROOT / "scenes/fig10.ron", "--quick", "-o", tmp_path)
     lines = (tmp_path / "tradeoff.csv").read_text().splitlines()
