@@ -65,6 +65,13 @@ void main() {
         return;
     }
 
+    if (SC_ANY_HIT != 0u) {
+        // An any-hit query's answer is its flags; its counts for the
+        // statistics. The rest of its result is left as it was.
+        results[i].counts = uvec4(m.steps, g_evals, m.refine_evals, m.flags & (FLAG_HIT | FLAG_OUT_OF_STEPS));
+        results[i].crossings = uvec4(m.crossings, g_visits, turns, 0u);
+        return;
+    }
     GpuResult r;
     r.hit = vec4(0.0, 0.0, 0.0, -1.0);
     r.color = vec4(globals.background.rgb, 0.0);
@@ -76,8 +83,7 @@ void main() {
         // may have passed it slices ago, behind what culling kept.
         if (SC_TRANSPARENT != 0u) uncull();
         float t = SC_TRANSPARENT != 0u ? m.first : m.t;
-        // An any-hit query wants only the answer: no normal.
-        vec3 n = SC_ANY_HIT != 0u ? vec3(0.0) : surface_normal(o + t * u);
+        vec3 n = surface_normal(o + t * u);
         r.hit = vec4(n, t);
         if (SC_SHADE != 0u) {
             r.color = vec4(shade(n, u), 1.0);

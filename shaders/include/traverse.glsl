@@ -93,6 +93,9 @@ bool meets_ray(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
     }
 }
 
+const bool ONLY_COMPACT_POINTS = SC_HAS_COMPACT_POINT != 0u && SC_HAS_GAUSSIAN_POINT == 0u && SC_HAS_COMPACT_PLANE == 0u && SC_HAS_HRBF == 0u
+                                 && SC_HAS_AFFINE == 0u;
+
 // Sets g_mask to the primitives whose support meets o + t u, t in [ta, tb].
 // Only with SC_CULL, which the host sets for scenes of at most 64
 // primitives. This is the flat cursor's set-up, not an evaluation; it
@@ -104,7 +107,8 @@ void cull_to_ray(vec3 o, vec3 u, float ta, float tb) {
         GpuPrimitive pr;
         pr.a = uintBitsToFloat(prim_texel(i, 0u));
         pr.b = uintBitsToFloat(prim_texel(i, 1u));
-        pr.ids = prim_texel(i, 3u);
+        // A scene of compact points alone needs no texel for the kind.
+        pr.ids.x = ONLY_COMPACT_POINTS ? PRIM_COMPACT_POINT : prim_texel(i, 3u).x;
         if (meets_ray(pr, o, u, ta, tb)) g_mask[i >> 5u] |= 1u << (i & 31u);
     }
 }

@@ -189,8 +189,9 @@ pub struct MarchOptions {
     /// first sign change (entering or leaving).
     pub secondary: bool,
     /// Any-hit rays (shadows, occlusion): the march ends at the first sign
-    /// change it brackets or proves, unrefined, and the hit has no normal.
-    /// Its `hit.w` is then only a point past which the crossing cannot lie.
+    /// change it brackets or proves, unrefined, and writes only `counts`
+    /// (the answer is `FLAG_HIT`) and `crossings` of its result; `hit` and
+    /// `color` keep what the buffer held.
     pub any_hit: bool,
     /// Compile pipelines for any scene: every primitive kind and the max of
     /// groups kept in, instead of only what this scene uses (to measure
