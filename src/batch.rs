@@ -323,7 +323,7 @@ pub fn run(
 
 /// The CSV's shadow and occlusion columns: steps per shadow ray and per
 /// occlusion ray and their GPU ms, empty where the frame cast none.
-fn any_hit_columns(a: Option<&crate::render::light::AnyHitStats>) -> String {
+fn any_hit_columns(a: Option<&crate::output::AnyHitStats>) -> String {
     let Some(a) = a else { return ",,".to_string() };
     let per = |rays: u64, steps: f64| if rays > 0 { format!("{steps:.4}") } else { String::new() };
     format!(

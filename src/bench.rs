@@ -317,12 +317,8 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, plan: &Plan, timeout: std::time::D
     let Plan { methods, variants, rays, seed, repeats, camera, any_hit } = *plan;
     anyhow::ensure!(repeats >= 1, "the benchmark must run at least once");
     // The GPU's coordinates centred on the box the rays aim at (f32).
-    let mut scene = scene.recentred(scene.bounds.center());
-    if any_hit && !scene.shadows && scene.ao.is_none() {
-        scene.shadows = true;
-        scene.ao = Some(crate::scene::Ao { samples: DEFAULT_AO_SAMPLES, distance: scene.default_ao_distance() });
-    }
-    let scene = &scene;
+    let recentred = scene.recentred(scene.bounds.center());
+    let scene = &if any_hit { with_any_hit_defaults(recentred) } else { recentred };
     let mut ray_set = match camera {
         None => protocol_rays(&scene.bounds, rays, seed),
         Some((w, h)) => camera_sample(scene, w, h, rays, seed)?,
@@ -401,6 +397,16 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, plan: &Plan, timeout: std::time::D
         index: renderer.index_stats(),
         any_hit: any_hit_setup,
     })
+}
+
+/// `scene`, casting shadow rays and `DEFAULT_AO_SAMPLES` occlusion rays
+/// where it asks for neither: what an any-hit benchmark measures.
+pub fn with_any_hit_defaults(mut scene: Scene) -> Scene {
+    if !scene.shadows && scene.ao.is_none() {
+        scene.shadows = true;
+        scene.ao = Some(crate::scene::Ao { samples: DEFAULT_AO_SAMPLES, distance: scene.default_ao_distance() });
+    }
+    scene
 }
 
 /// One row of the benchmark: a method, the variant it runs in and the

@@ -664,7 +664,14 @@ struct TradeoffArgs {
     /// and 1000, 1024 rays.
     #[arg(long)]
     quick: bool,
-    /// Output folder (default: tradeoff-<scene name>).
+    /// Sweep the any-hit query of shadows and ambient occlusion instead:
+    /// the scene's shadow and occlusion rays (both, with 8 occlusion rays,
+    /// when it asks for neither) cast from the f64 reference's hits of the
+    /// protocol rays, as `bench --any-hit` casts them; an answer that
+    /// disagrees with the reference's counts as an error of 1.
+    #[arg(long)]
+    any_hit: bool,
+    /// Output folder (default: tradeoff-<scene name>, with -any-hit).
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Draw the plot again from the folder's tradeoff.csv, without
@@ -1101,8 +1108,11 @@ fn view(args: ViewArgs) -> Result<()> {
 }
 
 fn tradeoff(args: TradeoffArgs) -> Result<()> {
-    let TradeoffArgs { scene: path, methods, min_steps, max_steps, rays, seed, quick, output, replot, gpu } = args;
-    let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    let TradeoffArgs { scene: path, methods, min_steps, max_steps, rays, seed, quick, any_hit, output, replot, gpu } = args;
+    let mut stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    if any_hit {
+        stem.push_str("-any-hit");
+    }
     let dir = output.unwrap_or_else(|| PathBuf::from(format!("tradeoff-{stem}")));
     if replot {
         let csv = dir.join("tradeoff.csv");
@@ -1127,6 +1137,7 @@ fn tradeoff(args: TradeoffArgs) -> Result<()> {
         sweep.rays = n;
     }
     sweep.seed = seed;
+    sweep.any_hit = any_hit;
     sweep.check()?;
     let gpu = gpu.open()?;
     let total = sweep.methods.len() * sweep.min_steps.len() * sweep.max_steps.len();

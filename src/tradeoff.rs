@@ -9,13 +9,13 @@ use std::sync::Arc;
 use anyhow::{Result, bail};
 use serde::Serialize;
 
-use crate::bench::{accuracy_all, match_window, reference_crossings};
+use crate::bench::{accuracy_all, any_hit_rays, match_window, reference_crossings, with_any_hit_defaults};
 use crate::gpu::Context;
 use crate::layout::FLAG_HIT;
 use crate::method::Method;
 use crate::output::MarchStats;
 use crate::render::rays::protocol_rays;
-use crate::render::{MarchOptions, Renderer};
+use crate::render::{MarchOptions, Renderer, light};
 use crate::scene::Scene;
 
 /// The settings a sweep covers.
@@ -26,12 +26,23 @@ pub struct Sweep {
     pub max_steps: Vec<u32>,
     pub rays: usize,
     pub seed: u64,
+    /// Sweep the any-hit query of shadows and occlusion instead
+    /// (`bench --any-hit`'s rays, cast from the reference's hits of the
+    /// protocol rays): errors are then wrong answers, each counting 1.
+    pub any_hit: bool,
 }
 
 impl Sweep {
     /// The full sweep: minimum steps 1e-4 to 1, step budgets 8 to 10,000.
     pub fn full(methods: Vec<Method>) -> Sweep {
-        Sweep { methods, min_steps: vec![1e-4, 1e-3, 1e-2, 0.1, 1.0], max_steps: vec![8, 32, 128, 1000, 10_000], rays: 16_384, seed: 20230601 }
+        Sweep {
+            methods,
+            min_steps: vec![1e-4, 1e-3, 1e-2, 0.1, 1.0],
+            max_steps: vec![8, 32, 128, 1000, 10_000],
+            rays: 16_384,
+            seed: 20230601,
+            any_hit: false,
+        }
     }
 
     /// One-line errors for a sweep that cannot run, named by the command
@@ -55,12 +66,17 @@ impl Sweep {
         if self.rays == 0 {
             bail!("--rays must be at least 1");
         }
+        if self.any_hit
+            && let Some(m) = self.methods.iter().find(|m| matches!(m, Method::LinearBisection | Method::Raa))
+        {
+            bail!("--any-hit: {m} cannot march shadow and occlusion rays (they start on a surface); leave it out of --methods");
+        }
         Ok(())
     }
 
     /// A few settings on few rays, for CI.
     pub fn quick(methods: Vec<Method>) -> Sweep {
-        Sweep { methods, min_steps: vec![0.01, 0.1], max_steps: vec![32, 1000], rays: 1024, seed: 20230601 }
+        Sweep { methods, min_steps: vec![0.01, 0.1], max_steps: vec![32, 1000], rays: 1024, seed: 20230601, any_hit: false }
     }
 }
 
@@ -97,9 +113,16 @@ pub struct Point {
 /// Runs the sweep; `progress` gets the number of settings done.
 pub fn run(ctx: &Arc<Context>, scene: &Scene, sweep: &Sweep, timeout: std::time::Duration, mut progress: impl FnMut(usize)) -> Result<Vec<Point>> {
     // The GPU's coordinates centred on the box the rays aim at (f32).
-    let scene = &scene.recentred(scene.bounds.center());
-    let rays = protocol_rays(&scene.bounds, sweep.rays, sweep.seed);
-    let transparent = scene.transparency.is_some();
+    let recentred = scene.recentred(scene.bounds.center());
+    let transparent = recentred.transparency.is_some();
+    if sweep.any_hit && transparent {
+        bail!("--any-hit: {} is transparent, and transparent scenes cast no shadow rays", scene.source);
+    }
+    let scene = &if sweep.any_hit { with_any_hit_defaults(recentred) } else { recentred };
+    let mut rays = protocol_rays(&scene.bounds, sweep.rays, sweep.seed);
+    if sweep.any_hit {
+        rays = any_hit_rays(scene, &rays).0.rays;
+    }
     let reference = reference_crossings(scene, &rays, !transparent, false);
     let size = scene.bounds.diagonal();
     let mut renderer = Renderer::new(ctx, scene)?;
@@ -114,11 +137,17 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, sweep: &Sweep, timeout: std::time:
                 renderer.set_scene(&s)?;
                 // Unshaded: only hits and counts are measured.
                 let options = MarchOptions { shade: false, ..MarchOptions::for_scene(&s) };
+                let options = if sweep.any_hit { light::any_hit_options(options) } else { options };
                 let out = renderer.march(method, options, &rays, |_| {})?;
                 let stats = MarchStats::of(&out.results, out.gpu_ns);
                 let (mut errors, mut misses, mut false_hits, mut either) = (Vec::new(), 0usize, 0usize, 0usize);
-                for (r, reference) in out.results.iter().zip(&reference) {
-                    let hit = (r.counts[3] & FLAG_HIT != 0).then_some(f64::from(r.hit[3]));
+                for ((r, reference), ray) in out.results.iter().zip(&reference).zip(&rays) {
+                    // An any-hit answer has no distance: right is error 0.
+                    let hit = if sweep.any_hit {
+                        light::occluded(ray, r).then(|| reference.first().copied().unwrap_or(0.0))
+                    } else {
+                        (r.counts[3] & FLAG_HIT != 0).then_some(f64::from(r.hit[3]))
+                    };
                     match (hit, reference.first()) {
                         (Some(t), Some(&tr)) => errors.push((t - tr).abs() / size),
                         (None, Some(_)) => misses += 1,
@@ -131,7 +160,7 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, sweep: &Sweep, timeout: std::time:
                 let quantile = |q: f64| errors.get(((errors.len() as f64 - 1.0) * q).round() as usize).copied().unwrap_or(0.0);
                 let capped: f64 = errors.iter().map(|e| e.min(1.0)).sum::<f64>() + (misses + false_hits) as f64;
                 let n = rays.len().max(1) as f64;
-                let missed_crossings = transparent.then(|| {
+                let missed_crossings = (transparent && !sweep.any_hit).then(|| {
                     // The window of `bench` (bench::match_window).
                     let (late, early) = match_window(min_step, s.refine_tolerance());
                     let a = accuracy_all(&out.crossings, &reference, late, early);

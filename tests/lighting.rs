@@ -1,5 +1,6 @@
 //! Shadows and ambient occlusion (`--shadows`, `--ao N`) against closed
-//! forms, through the binary, for every method that marches them.
+//! forms and the f64 reference, through the binary, for every method that
+//! marches them.
 
 mod common;
 
@@ -7,7 +8,11 @@ use common::*;
 use glam::DVec3;
 use isomarch::scene::Scene;
 
-const METHODS: [&str; 5] = ["quadratic-taylor", "segment", "sphere", "linear-taylor", "quadratic"];
+/// Every method that marches shadow and occlusion rays: the conservative
+/// methods of Algorithm 1 (the bisection baselines refuse rays that start
+/// on a surface).
+const METHODS: [&str; 8] =
+    ["sphere", "segment", "linear-taylor", "quadratic-taylor", "linear", "quadratic", "quadratic-relaxed-t0", "quadratic-relaxed-max"];
 
 /// A plane y = 0 seen from above; with `sphere`, a compact blob of R = 2
 /// at (0, 6, 0) over it (their supports apart, so the blob's surface is the
@@ -114,12 +119,6 @@ fn a_spheres_shadow_on_a_plane_is_its_analytic_ellipse_within_a_pixel() {
     }
 }
 
-/// Every method that marches any-hit rays: the conservative methods of
-/// Algorithm 1 (the bisection baselines refuse rays that start on a
-/// surface).
-const ANY_HIT_METHODS: [&str; 8] =
-    ["sphere", "segment", "linear-taylor", "quadratic-taylor", "linear", "quadratic", "quadratic-relaxed-t0", "quadratic-relaxed-max"];
-
 #[test]
 fn at_the_foot_of_a_wall_half_the_cosine_weighted_hemisphere_is_occluded() {
     // Two slabs at a right angle, as the max of two groups (no blend at the
@@ -141,7 +140,7 @@ fn at_the_foot_of_a_wall_half_the_cosine_weighted_hemisphere_is_occluded() {
     }
     // 3/32 for these 32 rays (docs/lighting.md).
     assert!(sampling <= 3.0 / f64::from(samples), "the R2 set's half-plane error {sampling} is more than 3/N");
-    for method in ANY_HIT_METHODS {
+    for method in METHODS {
         let text = format!(
             r#"Scene(
     camera: (eye: ({c}, 40.0, 0.0), target: ({c}, 0.0, 0.0), up: (0.0, 0.0, -1.0), fov_y: {fov}, resolution: ({w}, {w})),
@@ -202,7 +201,7 @@ fn any_hit_answers_agree_with_the_f64_reference_ray_by_ray() {
     let cases: [(&str, &std::path::Path, &[&str]); 3] = [("fig10", &fig10, &[]), ("fig1", &fig1, &["--opaque"]), ("1A8O", &molecule, &[])];
     for (name, scene, extra) in cases {
         let out = dir.join(format!("{name}.json"));
-        let methods = ANY_HIT_METHODS.join(",");
+        let methods = METHODS.join(",");
         let mut args = vec!["bench", scene.to_str().unwrap(), "--any-hit", "--camera", "128x128", "--rays", "1024"];
         args.extend_from_slice(&["--methods", &methods, "--json", out.to_str().unwrap()]);
         args.extend_from_slice(extra);
@@ -259,4 +258,37 @@ fn shadow_and_occlusion_rays_are_counted_apart_in_the_statistics_and_the_batch_c
         let ao: f64 = cells[1].parse().unwrap_or_else(|_| panic!("{line}"));
         assert!(shadow >= 1.0 && ao >= 1.0, "{line}");
     }
+}
+
+#[test]
+fn tradeoff_sweeps_the_any_hit_query() {
+    // The quick sweep (2 minimum steps x 2 step budgets) of segment and
+    // quadratic Taylor on fig10's shadow and occlusion rays.
+    let dir = scratch("light-tradeoff");
+    let scene = repo_root().join("scenes/fig10.ron");
+    run_ok(&["tradeoff", scene.to_str().unwrap(), "--any-hit", "--quick", "--rays", "512", "-o", dir.to_str().unwrap()]);
+    let text = std::fs::read_to_string(dir.join("tradeoff.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = text.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 8, "{text}");
+    let column = |name: &str| text.lines().next().unwrap().split(',').position(|c| c == name).unwrap();
+    let (budget, error, oos) = (column("max_steps"), column("error"), column("out_of_steps_rate"));
+    for row in &rows {
+        let e: f64 = row[error].parse().unwrap();
+        if row[budget] == "1000" {
+            // A full budget answers as the reference does (docs/lighting.md).
+            assert!(e <= 0.01 && row[oos].parse::<f64>().unwrap() == 0.0, "{row:?}");
+        }
+    }
+    // The rays are bench --any-hit's (same seed and count): the steps of a
+    // setting that equals the scene's own are the same.
+    let json_path = dir.join("bench.json");
+    run_ok(&["bench", scene.to_str().unwrap(), "--any-hit", "--rays", "512", "--methods", "quadratic-taylor", "--json", json_path.to_str().unwrap()]);
+    let bench_steps = json(&json_path)["methods"][0]["steps_per_ray"].as_f64().unwrap();
+    let own = rows.iter().find(|r| r[0] == "quadratic-taylor" && r[1] == "0.1" && r[budget] == "1000").unwrap();
+    let steps: f64 = own[column("steps_per_ray")].parse().unwrap();
+    assert!((steps - bench_steps).abs() < 1e-4, "tradeoff {steps} steps per ray, bench --any-hit {bench_steps}");
+    // Segment tracing crawls off surfaces in minimum steps of 0.01: 32
+    // steps leave some of its rays unanswered, which count as errors.
+    let starved = rows.iter().find(|r| r[0] == "segment" && r[1] == "0.01" && r[budget] == "32").unwrap();
+    assert!(starved[oos].parse::<f64>().unwrap() > 0.0 && starved[error].parse::<f64>().unwrap() > 0.0, "{starved:?}");
 }

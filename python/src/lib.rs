@@ -313,7 +313,7 @@ impl NativeRenderer {
         rays: usize,
         seed: u64,
     ) -> PyResult<String> {
-        let sweep = isomarch::tradeoff::Sweep { methods: parse_methods(&methods)?, min_steps, max_steps, rays, seed };
+        let sweep = isomarch::tradeoff::Sweep { methods: parse_methods(&methods)?, min_steps, max_steps, rays, seed, any_hit: false };
         sweep.check().map_err(raise)?;
         let posed = scene.scene.at_time(0.0);
         let (ctx, timeout) = (Arc::clone(&self.ctx), self.timeout);

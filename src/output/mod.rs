@@ -211,7 +211,19 @@ pub struct MarchStats {
     /// The shadow and occlusion rays cast from the hits (`null` when none
     /// was cast): their steps apart from the camera rays' above, and their
     /// GPU time apart from `gpu_ms`.
-    pub any_hit: Option<crate::render::light::AnyHitStats>,
+    pub any_hit: Option<AnyHitStats>,
+}
+
+/// The shadow and occlusion rays of a frame (`render::light`), in `render
+/// --stats` and the batch CSV.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct AnyHitStats {
+    pub shadow_rays: u64,
+    pub shadow_steps_per_ray: f64,
+    pub ao_rays: u64,
+    pub ao_steps_per_ray: f64,
+    /// GPU time of their march, apart from the camera rays' `gpu_ms`.
+    pub gpu_ms: Option<f64>,
 }
 
 impl MarchStats {

@@ -25,6 +25,7 @@ use glam::DVec3;
 use super::{MarchOptions, MarchOutput, Renderer};
 use crate::layout::{FLAG_HIT, GpuRay, GpuResult};
 use crate::method::Method;
+use crate::output::AnyHitStats;
 use crate::scene::Scene;
 
 /// What the any-hit rays cost.
@@ -60,18 +61,6 @@ impl LightStats {
             gpu_ms: self.gpu_ns.map(|ns| ns * 1e-6),
         })
     }
-}
-
-/// The shadow and occlusion rays of a frame, in `render --stats` and the
-/// batch CSV.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct AnyHitStats {
-    pub shadow_rays: u64,
-    pub shadow_steps_per_ray: f64,
-    pub ao_rays: u64,
-    pub ao_steps_per_ray: f64,
-    /// GPU time of their march, apart from the camera rays' `gpu_ms`.
-    pub gpu_ms: Option<f64>,
 }
 
 /// The unlit colour a shaded hit returns in `crossings.w`.
@@ -151,15 +140,16 @@ fn facing(n: DVec3, u: DVec3) -> DVec3 {
 /// The rays from `hits[i]` (the distance along camera ray `i` and the
 /// surface normal there, either orientation; `None`: no hit) towards each
 /// light the surface faces (`scene.shadows`) and over its hemisphere
-/// (`scene.ao`), light by light and sample by sample; each starts [`start_offset`] off the
-/// surface on the side the camera ray sees and ends at the scene's box (a
-/// shadow ray) or `ao.distance` along it. The GPU frame and the f64
+/// (`scene.ao`), light by light and sample by sample; each starts
+/// [`start_offset`] off the surface on the side the camera ray sees and
+/// ends at the scene's box (a shadow ray) or `ao.distance` along it. The GPU frame and the f64
 /// reference cast them alike, so that they can be compared ray by ray.
 pub fn spawn(scene: &Scene, rays: &[GpuRay], hits: &[Option<(f64, DVec3)>]) -> AnyHitRays {
     let eps = start_offset(scene);
     // One batch per light and per occlusion sample, each in camera-ray
     // order: neighbouring lanes then march neighbouring rays in one
-    // direction, which lavapipe's 8-lane loops need to stay short.
+    // direction, as a GPU's SIMD groups want (on lavapipe the difference
+    // was within its noise).
     let samples = scene.ao.map_or(0, |a| a.samples as usize);
     let mut batches = vec![AnyHitRays::default(); scene.lights.len() + samples];
     for (i, (ray, hit)) in rays.iter().zip(hits).enumerate() {
