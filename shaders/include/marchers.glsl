@@ -203,7 +203,6 @@ void step_apply(vec3 o, vec3 u, float tmax, StepEval e, inout March m) {
         m.flags |= FLAG_HIT;
         if (SC_ANY_HIT != 0u) {
             // Proven without a step to it: the answer of an any-hit query.
-            m.t = rb;
             m.flags |= FLAG_DONE;
             return;
         }
