@@ -299,13 +299,20 @@ impl Plan<'_> {
         anyhow::ensure!(!self.methods.is_empty(), "--methods names no marcher");
         anyhow::ensure!(self.rays >= 1, "--rays must be at least 1");
         anyhow::ensure!(self.repeats >= 1, "--repeat must be at least 1");
-        if self.any_hit
-            && let Some(m) = self.methods.iter().find(|m| matches!(m, Method::LinearBisection | Method::Raa))
-        {
-            anyhow::bail!("--any-hit: {m} cannot march shadow and occlusion rays (they start on a surface); leave it out of --methods");
+        if self.any_hit {
+            check_any_hit_methods(self.methods)?;
         }
         Ok(())
     }
+}
+
+/// `--any-hit` (bench, tradeoff): one-line error for a method of `methods`
+/// that cannot march rays starting on a surface (the bisection baselines).
+pub fn check_any_hit_methods(methods: &[Method]) -> Result<()> {
+    if let Some(m) = methods.iter().find(|m| matches!(m, Method::LinearBisection | Method::Raa)) {
+        anyhow::bail!("--any-hit: {m} cannot march shadow and occlusion rays (they start on a surface); leave it out of --methods");
+    }
+    Ok(())
 }
 
 /// Runs every method on the same protocol rays and compares them. Each

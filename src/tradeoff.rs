@@ -9,7 +9,7 @@ use std::sync::Arc;
 use anyhow::{Result, bail};
 use serde::Serialize;
 
-use crate::bench::{accuracy_all, any_hit_rays, match_window, reference_crossings, with_any_hit_defaults};
+use crate::bench::{accuracy_all, any_hit_rays, check_any_hit_methods, match_window, reference_crossings, with_any_hit_defaults};
 use crate::gpu::Context;
 use crate::layout::FLAG_HIT;
 use crate::method::Method;
@@ -66,10 +66,8 @@ impl Sweep {
         if self.rays == 0 {
             bail!("--rays must be at least 1");
         }
-        if self.any_hit
-            && let Some(m) = self.methods.iter().find(|m| matches!(m, Method::LinearBisection | Method::Raa))
-        {
-            bail!("--any-hit: {m} cannot march shadow and occlusion rays (they start on a surface); leave it out of --methods");
+        if self.any_hit {
+            check_any_hit_methods(&self.methods)?;
         }
         Ok(())
     }
