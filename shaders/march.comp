@@ -28,14 +28,15 @@ void main() {
     } else {
         GpuMarchState s = states[i];
         m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w & 0xFFFFu, s.node.x, s.node.y, s.node.w, s.node.z, s.v.w, s.light.w, s.light.rgb,
-                  s.trans.rgb, s.trans.w, s.refine.x, s.refine.y, s.refine.z, s.refine.w, s.n.w >> 24u, (s.n.w >> 16u) & 0xFFu);
+                  s.trans.rgb, s.trans.w, s.refine.x, s.refine.y, s.refine.z, s.refine.w, s.n.w >> 24u, (s.n.w >> 16u) & 0xFFu, uintBitsToFloat(s.tally.z));
         g_evals = s.n.y;
         g_visits = s.tally.x;
         turns = s.tally.y;
     }
     // What remains of the ray: bisection revisits it all, Algorithm 1 only
     // from the last point outside (refinement starts there).
-    bool bisects = SC_METHOD == METHOD_LINEAR_BISECTION || SC_METHOD == METHOD_RAA;
+    // (Not with the bracket's kernel, which the host picks for Algorithm 1.)
+    bool bisects = SC_BRACKET == 0u && (SC_METHOD == METHOD_LINEAR_BISECTION || SC_METHOD == METHOD_RAA);
     float from = bisects ? ray.o.w : m.t_prev;
     // A transparent march steps on while it refines a crossing behind.
     if ((m.flags & FLAG_REFINING) != 0u) from = min(from, m.ra);
@@ -60,7 +61,7 @@ void main() {
     } else {
         states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, m.first), uvec4(m.steps, g_evals, m.refine_evals, packed),
                                   uvec4(m.depth, m.index, m.crossings, m.base_depth), vec4(m.color, m.last), vec4(m.transmittance, m.f_prev),
-                                  vec4(m.ra, m.rb, m.ga, m.gb), uvec4(g_visits, turns, 0u, 0u));
+                                  vec4(m.ra, m.rb, m.ga, m.gb), uvec4(g_visits, turns, floatBitsToUint(m.far), 0u));
         atomicAdd(active_rays, 1u);
         return;
     }

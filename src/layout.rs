@@ -56,7 +56,10 @@ gpu_structs! {
     /// s/r², z weight, w the distance where |dk/dd| peaks (R/√5 or r/√(2s)).
     /// HRBF terms: `a.xyz` the control point, `a.w` α, `b.xyz` β. Affine
     /// functions: `a.xyz` the gradient, `a.w` the offset.
-    /// `c`: x the peak of |dk/dd| (the kernel's Lipschitz constant), yzw reserved.
+    /// `c`: x the peak of |dk/dd| (the kernel's Lipschitz constant), y the
+    /// radius for the index, z (points) the distance within which the
+    /// kernel alone reaches iso (1 + 1e-3) (0 where it never does: the
+    /// first-crossing bracket, `SC_BRACKET`), w reserved.
     /// `ids`: x kind (`PRIM_*`), y group index (primitives are sorted by group),
     /// z the primitive's own colour (linear RGB, 8 bits a channel, red lowest)
     /// when `GpuGlobals::surface.w` is 1.
@@ -100,7 +103,8 @@ gpu_structs! {
     /// interpolation uses them (z, w); the refinement's turns and the end
     /// its last turn moved are in bits 16-23 and 24-25 of `n.w`.
     /// `tally`: list positions visited and loop turns so far (see
-    /// `GpuResult::crossings`), zw reserved.
+    /// `GpuResult::crossings`), z where f >= 0 is known (`SC_BRACKET`; float
+    /// bits), w reserved.
     struct GpuMarchState { v: Vec4, n: UVec4, node: UVec4, light: Vec4, trans: Vec4, refine: Vec4, tally: UVec4 }
 
     /// Scene-wide constants. `march`: x iso, y minimum step, z refinement
@@ -220,11 +224,18 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
 /// removed only after lavapipe's passes over it, which made building a
 /// pipeline take seconds (docs/performance.md).
 const VARIANT_CONSTANT: &str = "SC_INDEX";
+/// `SC_BRACKET`, the first-crossing bracket and per-ray candidates
+/// (shaders/include/traverse.glsl), is a build variant too
+/// (`march_bracket.spv`, `ISOMARCH_BRACKET`: the index, point kernels
+/// only): as a constant its code made the indexed kernel's SPIR-V overflow
+/// the 4M ids spirv-opt allows while it optimises.
+const BRACKET_CONSTANT: &str = "SC_BRACKET";
 
 /// The build variants of shader `stem`: (macro, value, file suffix).
 pub fn shader_variants(stem: &str) -> Vec<(&'static str, &'static str, &'static str)> {
     match stem {
-        "march" | "bounds" => vec![("ISOMARCH_INDEXED", "1u", "_indexed")],
+        "march" => vec![("ISOMARCH_INDEXED", "1u", "_indexed"), ("ISOMARCH_BRACKET", "1u", "_bracket")],
+        "bounds" => vec![("ISOMARCH_INDEXED", "1u", "_indexed")],
         _ => Vec::new(),
     }
 }
@@ -509,9 +520,11 @@ pub fn glsl() -> String {
     for (id, name) in SPEC_CONSTANTS {
         s.push_str(&format!("layout(constant_id = {id}) const uint {name} = 0u;\n"));
     }
-    // A build variant (ISOMARCH_INDEXED) or, without one, 0.
+    // The build variants (shader_variants), or, without one, neither.
     s.push_str(&format!(
-        "#ifdef ISOMARCH_INDEXED\nconst uint {VARIANT_CONSTANT} = ISOMARCH_INDEXED;\n#else\nconst uint {VARIANT_CONSTANT} = 0u;\n#endif\n"
+        "#if defined(ISOMARCH_BRACKET)\nconst uint {VARIANT_CONSTANT} = 1u;\nconst uint {BRACKET_CONSTANT} = 1u;\n\
+         #elif defined(ISOMARCH_INDEXED)\nconst uint {VARIANT_CONSTANT} = ISOMARCH_INDEXED;\nconst uint {BRACKET_CONSTANT} = 0u;\n\
+         #else\nconst uint {VARIANT_CONSTANT} = 0u;\nconst uint {BRACKET_CONSTANT} = 0u;\n#endif\n"
     ));
     s.push_str(&glsl_structs());
     s.push_str("#endif\n");

@@ -123,6 +123,12 @@ impl Method {
         matches!(self, Method::FieldInversion | Method::FieldInversionDynamol)
     }
 
+    /// Whether the method bisects the whole ray with pruning (the paper's
+    /// interval-arithmetic baselines) instead of stepping by Algorithm 1.
+    pub fn bisects(self) -> bool {
+        matches!(self, Method::LinearBisection | Method::Raa)
+    }
+
     /// Whether the method has an inclusion bound (Taylor, bottom-up): the
     /// GPU's TWO_SIDED methods, which refine with it.
     pub fn has_bound(self) -> bool {

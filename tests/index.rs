@@ -408,3 +408,98 @@ fn empty_cells_are_crossed_in_one_move() {
     }
     assert_no_validation(&ctx);
 }
+
+/// The first-crossing bracket (`render::brackets`, shaders/include/traverse.glsl)
+/// holds where every term is a point kernel of non-negative weight and iso
+/// is positive, and is off elsewhere: with a negative term, a plane, an
+/// HRBF or iso 0; for transparent and secondary rays; for the bisection
+/// baselines; and when the options turn it off.
+#[test]
+fn the_first_crossing_bracket_holds_only_for_sums_of_non_negative_point_kernels() {
+    use isomarch::render::brackets;
+    use isomarch::scene::{Kernel, Primitive};
+    let s = particles(200, 2, 5);
+    assert!(s.bracket_holds(), "a max of sums of compact blobs");
+    let opaque = MarchOptions::for_scene(&s);
+    assert!(brackets(&s, Method::QuadraticTaylor, &opaque) && brackets(&s, Method::Segment, &opaque));
+    assert!(brackets(&s, Method::QuadraticTaylor, &isomarch::render::light::any_hit_options(opaque)));
+    for (what, o) in [
+        ("transparent", MarchOptions { transparent: true, ..opaque }),
+        ("secondary", MarchOptions { secondary: true, ..opaque }),
+        ("turned off", MarchOptions { bracket: false, ..opaque }),
+    ] {
+        assert!(!brackets(&s, Method::QuadraticTaylor, &o), "{what}");
+    }
+    assert!(!brackets(&s, Method::Raa, &opaque) && !brackets(&s, Method::LinearBisection, &opaque));
+    let mut negative = s.clone();
+    negative.groups[0].push(Primitive::Point { center: DVec3::ZERO, kernel: Kernel::Compact { radius: 1.0, weight: -0.5 } });
+    assert!(!negative.bracket_holds(), "a negative term");
+    let mut zero_iso = s.clone();
+    zero_iso.iso = 0.0;
+    assert!(!zero_iso.bracket_holds(), "iso 0");
+    assert!(!plane_scene(false).bracket_holds(), "planes");
+    assert!(!random_hrbf_scene(3, false, Method::QuadraticTaylor).bracket_holds(), "an HRBF");
+}
+
+/// Where the bracket does not hold it is not used: 100 hollow blobs apart, each
+/// a positive compact kernel whose ball of reach (where it alone is at
+/// least iso) lies inside a negative one that cancels it, have no surface
+/// at all; every conservative method finds none, as the reference. The
+/// positive blobs alone are hit by most of the same rays, inside those
+/// balls.
+#[test]
+fn hollow_blobs_cancelled_by_negative_terms_are_not_bracketed() {
+    use isomarch::scene::{Kernel, Primitive};
+    // Apart (spacing 5, supports of radius 2), so that no two overlap.
+    let centres: Vec<DVec3> =
+        (0..100).map(|i| 5.0 * DVec3::new(f64::from(i % 5), f64::from(i / 5 % 5), f64::from(i / 25)) - DVec3::splat(10.0)).collect();
+    let point = |c: DVec3, radius: f64, weight: f64| Primitive::Point { center: c, kernel: Kernel::Compact { radius, weight } };
+    let hollow: Vec<Primitive> = centres.iter().flat_map(|&c| [point(c, 2.0, 1.0), point(c, 1.5, -1.0)]).collect();
+    let solid: Vec<Primitive> = centres.iter().map(|&c| point(c, 2.0, 1.0)).collect();
+    let (hollow, solid) = (scene(vec![hollow], 0.5, Method::QuadraticTaylor, 1e-3), scene(vec![solid], 0.5, Method::QuadraticTaylor, 1e-3));
+    assert!(!hollow.bracket_holds() && solid.bracket_holds());
+    // Rays aimed at the centres, through the balls of reach.
+    let rays: Vec<GpuRay> =
+        centres.iter().map(|&c| isomarch::render::rays::clipped_ray(c - DVec3::new(30.0, 0.1, 0.05), DVec3::X, &hollow.bounds)).collect();
+    assert!(reference_hits(&hollow, &rays, false).iter().all(Option::is_none), "the hollow blobs have no surface");
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx, &hollow).unwrap();
+    assert!(renderer.index_stats().is_some());
+    assert_first_hits(&mut renderer, &hollow, &rays, Method::CONSERVATIVE, "hollow blobs");
+    let mut renderer = Renderer::new(&ctx, &solid).unwrap();
+    let hits = assert_first_hits(&mut renderer, &solid, &rays, Method::CONSERVATIVE, "solid blobs");
+    assert!(hits >= 50, "only {hits} of 100 rays hit the solid blobs");
+    assert_no_validation(&ctx);
+}
+
+/// Where the bracket holds it is used: on a molecule's shadow and
+/// occlusion rays an any-hit query that enters an atom's ball of reach is
+/// answered there, so quadratic Taylor and segment tracing take fewer
+/// steps with it than without; every ray that hits without it hits with
+/// it, and first hits of camera rays stay the reference's.
+#[test]
+fn a_molecules_any_hit_queries_end_where_a_ray_enters_an_atoms_reach() {
+    let path = repo_root().join("tests/data/molecules/1A8O.pdb");
+    let (s, _) = isomarch::molecule::build::load_scene(&path, &Default::default()).unwrap();
+    let s = isomarch::bench::with_any_hit_defaults(s);
+    assert!(s.bracket_holds());
+    let (camera, _) = isomarch::render::rays::camera_rays(&s.camera, 48, 48, &s.bounds);
+    let (any_hit, _) = isomarch::bench::any_hit_rays(&s, &camera);
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx, &s).unwrap();
+    for method in [Method::QuadraticTaylor, Method::Segment] {
+        let with = isomarch::render::light::any_hit_options(MarchOptions::for_scene(&s));
+        let without = MarchOptions { bracket: false, ..with };
+        let a = renderer.march(method, with, &any_hit.rays, |_| {}).unwrap().results;
+        let b = renderer.march(method, without, &any_hit.rays, |_| {}).unwrap().results;
+        let steps = |r: &[GpuResult]| r.iter().map(|r| u64::from(r.counts[0])).sum::<u64>();
+        let hit = |r: &GpuResult| r.counts[3] & isomarch::layout::FLAG_HIT != 0;
+        let lost = a.iter().zip(&b).filter(|(a, b)| hit(b) && !hit(a)).count();
+        let gained = a.iter().zip(&b).filter(|(a, b)| hit(a) && !hit(b)).count();
+        assert_eq!(lost, 0, "{method}: rays hit without the bracket and not with it");
+        assert!(gained * 200 <= a.len(), "{method}: {gained} of {} rays hit only with the bracket", a.len());
+        assert!(10 * steps(&a) < 9 * steps(&b), "{method}: {} steps with the bracket, {} without", steps(&a), steps(&b));
+    }
+    assert_first_hits(&mut renderer, &s, &camera, &[Method::QuadraticTaylor, Method::Segment, Method::Quadratic], "1A8O camera rays");
+    assert_no_validation(&ctx);
+}

@@ -209,9 +209,11 @@ Lin lin_exp_neg(Lin y, float w, float len) {
 
 // Compact kernel w (a - x²/R²)³ on [x0, x0 + len], bottom up (Figure 11) on
 // the part inside the support, then extended over the whole interval.
-Lin compact_lin(float w, float inv_r2, float a, float x0, float len) {
+Lin compact_lin(float w_signed, float inv_r2, float a, float x0, float len) {
     Lin zero = Lin(0.0, 0.0, 0.0);
     if (a <= 0.0) return zero;
+    // A negative weight mirrors the kernel of |w|: its bounds swap (below).
+    float w = abs(w_signed);
     float l = sqrt(a / inv_r2);
     float xa = max(x0, -l);
     float xb = min(x0 + len, l);
@@ -226,7 +228,7 @@ Lin compact_lin(float w, float inv_r2, float a, float x0, float len) {
         k = Lin(0.0, 0.0, end / (xb - x0));
     }
     if (xb < x0 + len && len > 0.0) k.hi = max(k.hi, -k.v / len);
-    return k;
+    return w_signed < 0.0 ? Lin(-k.v, -k.hi, -k.lo) : k;
 }
 
 // One primitive's bottom-up linear bound on [t0, t0 + len], per kind.
@@ -244,8 +246,10 @@ Lin gaussian_point_linear(GpuPrimitive pr, vec3 o, vec3 u, float t0, float len) 
     Lin y = Lin(alpha * (x0 * x0 + h2), 2.0 * alpha * x0, alpha * (2.0 * x0 + len));
     // Slopes clamped to the kernel's Lipschitz constant (mean value
     // theorem): the chord of e^{-y} can overflow far from t0.
-    Lin k = lin_exp_neg(y, pr.b.z, len);
-    return Lin(k.v, max(k.lo, -pr.c.x), min(k.hi, pr.c.x));
+    // A negative weight mirrors the kernel of |w|: its bounds swap.
+    Lin k = lin_exp_neg(y, abs(pr.b.z), len);
+    k = Lin(k.v, max(k.lo, -pr.c.x), min(k.hi, pr.c.x));
+    return pr.b.z < 0.0 ? Lin(-k.v, -k.hi, -k.lo) : k;
 }
 
 Lin compact_plane_linear(GpuPrimitive pr, vec3 o, vec3 u, float t0, float len) {

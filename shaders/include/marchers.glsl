@@ -42,6 +42,7 @@ struct March {
     float gb;           //   (ga 0 where unknown)
     uint refine_side;   // the end the last turn moved: 0 none, 1 ra, 2 rb
     uint refine_turns;
+    float far;          // SC_BRACKET: a point where f >= 0 is known (INFINITY: none yet)
 };
 
 // The ray being marched (its crossings go to crossings[]).
@@ -55,7 +56,7 @@ float window_cap(float window) {
 
 March march_start(float tmin, float tmax) {
     March m = March(tmin, tmin, window_cap(tmax - tmin), 0u, 0u, 0u, 0u, 0u, 0u, 0u, -1.0, tmin, vec3(0.0), vec3(1.0), 0.0,
-                    0.0, 0.0, 0.0, 0.0, 0u, 0u);
+                    0.0, 0.0, 0.0, 0.0, 0u, 0u, INFINITY);
     // Bisection starts at nodes no longer than the cap.
     if (globals.tuning.z > 0.0 && tmax - tmin > globals.tuning.z) {
         m.base_depth = min(uint(ceil(log2((tmax - tmin) / globals.tuning.z))), 24u);
@@ -108,7 +109,8 @@ void on_crossing(vec3 o, vec3 u, float tc, bool entering, inout March m) {
 struct StepEval {
     float f;
     float step;
-    float cross;    // from t0, a point where f >= 0 is proven (INFINITY: none)
+    float cross;    // from t0, a point where f >= 0 is proven by the lower bound (INFINITY: none)
+    float reach;    // BRACKETS: from t0, where the ray enters a primitive's reach (INFINITY: not in [t0, t1])
 };
 
 // Opaque first-crossing marches of the inclusion methods take the lower
@@ -119,6 +121,13 @@ struct StepEval {
 const bool HAS_BOUND = SC_METHOD != METHOD_SPHERE && SC_METHOD != METHOD_SEGMENT && !INVERTS && SC_METHOD != METHOD_RAA
                        && SC_METHOD != METHOD_LINEAR_BISECTION;
 const bool TWO_SIDED = SC_TRANSPARENT == 0u && SC_SECONDARY == 0u && HAS_BOUND;
+// Interval folds also find where the ray enters a primitive's reach
+// (SC_BRACKET, g_reach in traverse.glsl): f >= 0 there, so the first
+// crossing lies no further. Later steps' intervals end there (March::far),
+// which keeps their bounds tight, and an any-hit query has its answer. It
+// does not start a refinement: the stretch before it may hold more than
+// one crossing, and a refinement closes on one of them, not the first.
+const bool BRACKETS = SC_BRACKET != 0u;
 
 // The fold of one turn on [t0, t1]: f at t0 and, for a step, the step to
 // the first root of the relevant bound on [t0, t1] (at most t1 - t0).
@@ -126,15 +135,15 @@ StepEval step_eval(vec3 o, vec3 u, float t0, float t1) {
     float len = t1 - t0;
     if (SC_METHOD == METHOD_SPHERE) {
         float f = field(o + t0 * u);
-        return StepEval(f, abs(f) / globals.march.w, INFINITY);            // Eq. 10
+        return StepEval(f, abs(f) / globals.march.w, INFINITY, INFINITY);            // Eq. 10
     } else if (INVERTS) {
         float f;
         float step = inversion_step(o, u, t0, f);            // not conservative (inversion.glsl)
-        return StepEval(f, step, INFINITY);
+        return StepEval(f, step, INFINITY, INFINITY);
     } else if (SC_METHOD == METHOD_SEGMENT) {
         float lambda;
         float f = field_and_lipschitz(o, u, t0, t1, lambda);   // Eq. 11, docs/benchmark-protocol.md
-        return StepEval(f, lambda > 0.0 ? min(abs(f) / lambda, len) : len, INFINITY);
+        return StepEval(f, lambda > 0.0 ? min(abs(f) / lambda, len) : len, INFINITY, BRACKETS ? g_reach : INFINITY);
     }
     Bound b = method_bound(o, u, t0, t1);   // may shorten t1
     // Opaque marching steps only from outside (f < 0; f >= 0 is a hit
@@ -146,7 +155,8 @@ StepEval step_eval(vec3 o, vec3 u, float t0, float t1) {
         float r = lower_root(b);
         if (r <= valid) cross = r;
     }
-    return StepEval(b.v, min(SC_TRANSPARENT != 0u || SC_SECONDARY != 0u ? next_root(b) : upper_root(b), valid), cross);
+    return StepEval(b.v, min(SC_TRANSPARENT != 0u || SC_SECONDARY != 0u ? next_root(b) : upper_root(b), valid), cross,
+                    BRACKETS ? g_reach : INFINITY);
 }
 
 // The rest of one iteration of Algorithm 1, from its fold on [m.t, t_end]:
@@ -196,6 +206,14 @@ void step_apply(vec3 o, vec3 u, float tmax, StepEval e, inout March m) {
             on_crossing(o, u, m.t, !inside, m);
         }
         m.flags ^= FLAG_INSIDE;
+    }
+    if (BRACKETS && e.reach < INFINITY) {
+        if (SC_ANY_HIT != 0u) {
+            // f >= 0 proven inside the ray: the query's answer.
+            m.flags |= FLAG_HIT | FLAG_DONE;
+            return;
+        }
+        m.far = min(m.far, m.t + e.reach);
     }
     if (TWO_SIDED && e.cross < INFINITY) {
         // f < 0 up to the upper bound's root, f >= 0 at the lower one's.
@@ -376,6 +394,8 @@ void algorithm1_turn(vec3 o, vec3 u, float tmax, inout March m) {
             t1 = min(t + m.window, tmax);
         }
     }
+    // A step's interval ends where f >= 0 is known (BRACKETS).
+    if (BRACKETS && !refining && m.far > t0) t1 = min(t1, m.far);
     uint before = g_evals;
     StepEval e = step_eval(o, u, t0, t1);
     if (refining) {

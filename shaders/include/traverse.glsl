@@ -390,9 +390,10 @@ Terms prim_terms(uint what, GpuPrimitive pr, Query q, inout float len) {
     switch (pr.ids.x) {
     case PRIM_COMPACT_POINT: return SC_HAS_COMPACT_POINT != 0u ? compact_point_terms(what, pr, q, len) : no_terms();
     case PRIM_GAUSSIAN_POINT: return SC_HAS_GAUSSIAN_POINT != 0u ? gaussian_point_terms(what, pr, q, len) : no_terms();
-    case PRIM_COMPACT_PLANE: return SC_HAS_COMPACT_PLANE != 0u ? compact_plane_terms(what, pr, q, len) : no_terms();
-    case PRIM_HRBF: return SC_HAS_HRBF != 0u ? hrbf_terms(what, pr, q, len) : no_terms();
-    case PRIM_AFFINE: return SC_HAS_AFFINE != 0u ? affine_terms(what, pr, q, len) : no_terms();
+    // The bracket's kernel (SC_BRACKET) marches point kernels alone.
+    case PRIM_COMPACT_PLANE: return SC_BRACKET == 0u && SC_HAS_COMPACT_PLANE != 0u ? compact_plane_terms(what, pr, q, len) : no_terms();
+    case PRIM_HRBF: return SC_BRACKET == 0u && SC_HAS_HRBF != 0u ? hrbf_terms(what, pr, q, len) : no_terms();
+    case PRIM_AFFINE: return SC_BRACKET == 0u && SC_HAS_AFFINE != 0u ? affine_terms(what, pr, q, len) : no_terms();
     default: return poison_terms();
     }
 }
@@ -465,6 +466,30 @@ Fold empty_fold() {
     return Fold(-3.0e38, vec3(0.0), vec3(0.0), 0.0, Bound(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), false, vec2(-3.0e38), false);
 }
 
+// The first-crossing bracket (SC_BRACKET: every primitive a point kernel
+// of non-negative weight, iso > 0; Scene::bracket_holds). Each group's sum
+// is at least any one of its terms and f the max of the groups, so f >= 0
+// wherever one primitive alone reaches iso: inside its reach (c.z, the
+// distance within which its kernel is at least iso (1 + 1e-3), so that
+// rounding does not undo it; 0 where it never is). An interval fold
+// yields every primitive whose support meets its interval, so it also
+// finds where, from t0, the ray first enters a yielded primitive's reach:
+// g_reach (INFINITY: nowhere in [t0, t1]). The first crossing lies no
+// further, so the march brackets it there without a step to it.
+float g_reach = INFINITY;
+
+// From q.t0, where the ray enters point primitive pr's reach within the
+// query (INFINITY: it does not).
+float reach_entry(GpuPrimitive pr, Query q) {
+    vec2 hx = point_on_ray(pr, q.o, q.u, q.t0);   // (h², t0 - tc)
+    float r2 = pr.c.z * pr.c.z - hx.x;
+    if (r2 <= 0.0) return INFINITY;
+    float s = sqrt(r2);
+    if (hx.y > s) return INFINITY;   // past the ball
+    float e = max(0.0, -s - hx.y);
+    return e <= q.t1 - q.t0 ? e : INFINITY;
+}
+
 // Adds primitive pr's terms for `what` to a group's sum. Only Gaussians
 // shorten the interval: a copy keeps len loop-invariant for scenes
 // without them.
@@ -480,6 +505,7 @@ void add_terms(uint what, GpuPrimitive pr, Query q, inout Terms sum, inout float
 // query that meets nothing still gets the empty sum), in group order.
 Fold fold_indexed(uint what, Query q, inout float len) {
     Fold r = empty_fold();
+    g_reach = INFINITY;
     Dda start;
     bool in_grid = dda_start(q, start);
     for (uint g = 0u; g < globals.sizes.y; ++g) {
@@ -489,7 +515,9 @@ Fold fold_indexed(uint what, Query q, inout float len) {
         uint end = list_start(list + 1u);
         g_visits += end - list_start(list);
         for (uint at = list_start(list); at < end; ++at) {
-            add_terms(what, load_prim(list_entry(at)), q, sum, len);
+            GpuPrimitive pr = load_prim(list_entry(at));
+            if (SC_BRACKET != 0u && !q.point) g_reach = min(g_reach, reach_entry(pr, q));
+            add_terms(what, pr, q, sum, len);
             met = true;
         }
         Dda c = start;
@@ -504,6 +532,7 @@ Fold fold_indexed(uint what, Query q, inout float len) {
                 if (!grid_admits(c, a, kind == PRIM_GAUSSIAN_POINT, q)) continue;
                 GpuPrimitive pr = GpuPrimitive(a, uintBitsToFloat(prim_texel(i, 1u)), uintBitsToFloat(prim_texel(i, 2u)), uvec4(kind, g, 0u, 0u));
                 if (what == EVAL_GRADIENT) pr.ids.z = prim_texel(i, 3u).z;
+                if (SC_BRACKET != 0u && !q.point) g_reach = min(g_reach, reach_entry(pr, q));
                 add_terms(what, pr, q, sum, len);
                 met = true;
             }
@@ -522,6 +551,7 @@ Fold fold_indexed(uint what, Query q, inout float len) {
 Fold fold_field(uint what, Query q, inout float len) {
     if (SC_INDEX != 0u) return fold_indexed(what, q, len);
     Fold r = empty_fold();
+    g_reach = INFINITY;
     Terms sum = no_terms();
     uint group = 0u;
     for (Cursor c = cursor_begin(); c.at < c.end; cursor_advance(c)) {
@@ -532,6 +562,7 @@ Fold fold_field(uint what, Query q, inout float len) {
             sum = no_terms();
             group = pr.ids.y;
         }
+        if (SC_BRACKET != 0u && !q.point) g_reach = min(g_reach, reach_entry(pr, q));
         add_terms(what, pr, q, sum, len);
     }
     fold_group(what, sum, len, r);

@@ -128,6 +128,15 @@ pub struct Lin {
     pub hi: f64,
 }
 
+/// The bounds of `-f` from those of `f`: the slopes swap.
+impl std::ops::Neg for Lin {
+    type Output = Lin;
+
+    fn neg(self) -> Lin {
+        Lin { v: -self.v, lo: -self.hi, hi: -self.lo }
+    }
+}
+
 impl Lin {
     /// Product (Section 5.2): the four corner products of the input lines
     /// are quadratics sharing the start value; each is bounded by its
@@ -170,6 +179,10 @@ impl Lin {
 /// upper slope raised to `-v/len` so the line stays >= 0 past the exit
 /// (the lower line already ends <= 0 at the exit and decreases).
 pub(super) fn compact_lin(w: f64, inv_r2: f64, a: f64, x0: f64, len: f64) -> Lin {
+    // A negative weight mirrors the kernel of |w|: its bounds swap.
+    if w < 0.0 {
+        return -compact_lin(-w, inv_r2, a, x0, len);
+    }
     let zero = Lin { v: 0.0, lo: 0.0, hi: 0.0 };
     if a <= 0.0 {
         return zero;

@@ -116,8 +116,10 @@ impl PrimitiveKind for PointPrim {
         // exceed any float; but |f'| never exceeds the kernel's Lipschitz
         // constant, so by the mean value theorem slopes can be clamped to
         // it (also tighter).
-        let k = y.exp_neg(kernel.weight, len);
-        Lin { v: k.v, lo: k.lo.max(-kernel.peak_slope), hi: k.hi.min(kernel.peak_slope) }
+        // A negative weight mirrors the kernel of |w|: its bounds swap.
+        let k = y.exp_neg(kernel.weight.abs(), len);
+        let k = Lin { v: k.v, lo: k.lo.max(-kernel.peak_slope), hi: k.hi.min(kernel.peak_slope) };
+        if kernel.weight < 0.0 { -k } else { k }
     }
 
     fn quadratic(&self, o: DVec3, u: DVec3, t0: f64, len: &mut f64, opts: QuadOptions) -> Bound {

@@ -49,7 +49,7 @@ pub struct KernelEval {
     pub weight: f64,
     /// Distance where `|dk/dd|` peaks.
     pub peak_distance: f64,
-    /// The peak of `|dk/dd|`.
+    /// The peak of `|dk/dd|` (non-negative whatever the weight's sign).
     pub peak_slope: f64,
 }
 
@@ -62,7 +62,7 @@ impl KernelEval {
                 inv: 1.0 / (radius * radius),
                 weight,
                 peak_distance: radius / 5f64.sqrt(),
-                peak_slope: COMPACT_PEAK_SLOPE * weight / radius,
+                peak_slope: COMPACT_PEAK_SLOPE * weight.abs() / radius,
             },
             Kernel::Gaussian { r, s, weight } => KernelEval {
                 gaussian: true,
@@ -70,7 +70,7 @@ impl KernelEval {
                 inv: s / (r * r),
                 weight,
                 peak_distance: r / (2.0 * s).sqrt(),
-                peak_slope: weight * (2.0 * s).sqrt() / r * (-0.5f64).exp(),
+                peak_slope: weight.abs() * (2.0 * s).sqrt() / r * (-0.5f64).exp(),
             },
         }
     }
@@ -104,6 +104,17 @@ impl KernelEval {
     /// unimodal with its peak at `peak_distance`.
     pub fn max_slope(&self, lo: f64, hi: f64) -> f64 {
         self.slope(self.peak_distance.clamp(lo, hi))
+    }
+
+    /// The distance within which the kernel alone reaches `level` (0 where
+    /// it never does): where a ray enters that ball, a sum of non-negative
+    /// kernels is at least `level` (the first-crossing bracket).
+    pub fn reach(&self, level: f64) -> f64 {
+        if !(self.weight > level) {
+            return 0.0;
+        }
+        let q = if self.gaussian { (self.weight / level).ln() / self.inv } else { (1.0 - (level / self.weight).cbrt()) / self.inv };
+        q.max(0.0).sqrt()
     }
 
     /// Distance beyond which the kernel is exactly zero.
@@ -180,6 +191,19 @@ mod tests {
                 let fd = (f.value(p + e) - f.value(p - e)) / (2.0 * h);
                 assert!((fd - g[axis]).abs() < 1e-6 * (1.0 + g.length()), "axis {axis} at {p}: {fd} vs {}", g[axis]);
             }
+        }
+    }
+
+    #[test]
+    fn a_kernels_reach_is_where_it_falls_to_the_level() {
+        for k in [Kernel::Compact { radius: 1.5, weight: 2.0 }, Kernel::Gaussian { r: 1.7, s: 2.0, weight: 2f64.exp() }] {
+            let e = KernelEval::new(k);
+            for level in [0.3, 1.0, 1.0 + 1e-3] {
+                let d = e.reach(level);
+                assert!(d > 0.0 && (e.value(d * d) - level).abs() < 1e-12 * level, "{k:?} at {level}: reach {d}");
+            }
+            assert_eq!(e.reach(e.weight), 0.0, "{k:?}: never above its weight");
+            assert_eq!(e.reach(3.0 * e.weight), 0.0);
         }
     }
 

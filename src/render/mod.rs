@@ -30,6 +30,8 @@ const BOUNDS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bounds.spv")
 /// The same kernels walking the spatial index (build variants: layout::shader_variants).
 const MARCH_INDEXED_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march_indexed.spv"));
 const BOUNDS_INDEXED_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bounds_indexed.spv"));
+/// The indexed march with the first-crossing bracket ([`brackets`]).
+const MARCH_BRACKET_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march_bracket.spv"));
 /// SPIR-V of the spatial index's build.
 const INDEX_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/index.spv"));
 
@@ -52,6 +54,7 @@ struct PipelineKey {
     transparent: bool,
     secondary: bool,
     any_hit: bool,
+    bracket: bool,
     generic: bool,
     refine: Refinement,
 }
@@ -68,6 +71,7 @@ impl PipelineKey {
             transparent: options.transparent,
             secondary: options.secondary,
             any_hit: options.any_hit,
+            bracket: options.bracket,
             generic: options.generic,
             refine: options.refine,
         }
@@ -193,6 +197,11 @@ pub struct MarchOptions {
     /// (the answer is `FLAG_HIT`) and `crossings` of its result; `hit` and
     /// `color` keep what the buffer held.
     pub any_hit: bool,
+    /// March a first crossing only inside its bracket where the scene
+    /// allows one (`Scene::bracket_holds`, with the spatial index): from
+    /// the first support the ray enters to the first ball in which one
+    /// primitive alone reaches iso. Off to measure what it buys.
+    pub bracket: bool,
     /// Compile pipelines for any scene: every primitive kind and the max of
     /// groups kept in, instead of only what this scene uses (to measure
     /// what specialisation buys; results are identical).
@@ -214,6 +223,9 @@ impl MarchOptions {
             transparent: scene.transparency.is_some(),
             secondary: false,
             any_hit: false,
+            // ISOMARCH_BRACKET=off measures what the bracket buys (as
+            // ISOMARCH_INDEX=off does for the index).
+            bracket: std::env::var("ISOMARCH_BRACKET").map_or(true, |v| v != "off"),
             generic: false,
             refine: scene.marching.refine,
         }
@@ -254,6 +266,10 @@ pub struct Renderer {
     pub timeout: Duration,
 }
 
+/// A primitive's reach on the GPU (`GpuPrimitive::c.z`) is where its kernel
+/// alone is this fraction above iso: f >= 0 there despite f32 rounding.
+const REACH_MARGIN: f64 = 1e-3;
+
 /// The primitives in GPU layout, sorted by group.
 pub fn gpu_primitives(scene: &Scene) -> Vec<GpuPrimitive> {
     primitives_with_radii(scene, &index::index_radii(scene))
@@ -281,12 +297,15 @@ fn primitives_with_radii(scene: &Scene, radii: &[Option<f64>]) -> Vec<GpuPrimiti
                 Primitive::Hrbf { center, alpha, .. } => (v4(center, alpha), layout::PRIM_HRBF),
                 Primitive::Affine { gradient, offset } => (v4(gradient, offset), layout::PRIM_AFFINE),
             };
-            let (b, c0) = match (e.kernel(), *p) {
-                (Some(k), _) => ([k.scale as f32, k.inv as f32, k.weight as f32, k.peak_distance as f32], k.peak_slope),
-                (None, Primitive::Hrbf { beta, .. }) => (v4(beta, 0.0), 0.0),
-                (None, _) => ([0.0; 4], 0.0),
+            let (b, c0, reach) = match (e.kernel(), *p) {
+                (Some(k), _) => {
+                    ([k.scale as f32, k.inv as f32, k.weight as f32, k.peak_distance as f32], k.peak_slope, k.reach(scene.iso * (1.0 + REACH_MARGIN)))
+                }
+                (None, Primitive::Hrbf { beta, .. }) => (v4(beta, 0.0), 0.0, 0.0),
+                (None, _) => ([0.0; 4], 0.0, 0.0),
             };
-            out.push(GpuPrimitive { a, b, c: [c0 as f32, radius as f32, 0.0, 0.0], ids: [kind, gi as u32, colors.next().unwrap_or(0), 0] });
+            let c = [c0 as f32, radius as f32, reach as f32, 0.0];
+            out.push(GpuPrimitive { a, b, c, ids: [kind, gi as u32, colors.next().unwrap_or(0), 0] });
         }
     }
     out
@@ -324,6 +343,16 @@ fn globals(scene: &Scene, growth: f64, quad: QuadSettings, grid: Option<&GridSpe
         grid_dims: grid.map_or([0; 4], |g| [g.dims[0], g.dims[1], g.dims[2], g.lists_per_group as u32]),
         inversion: Inversion::of_field(&field).map_or([0.0; 4], |i| [i.r_ref as f32, i.s as f32, i.ln_w as f32, i.ln_floor as f32]),
     }
+}
+
+/// Whether `method` marches `scene`'s first crossings with their bracket
+/// (`march_bracket.spv`, shaders/include/traverse.glsl):
+/// with the spatial index, where the bracket holds
+/// ([`Scene::bracket_holds`]), for opaque and
+/// any-hit rays (not transparent or secondary ones) of Algorithm 1's
+/// methods (not the bisection baselines), unless `options.bracket` is off.
+pub fn brackets(scene: &Scene, method: Method, options: &MarchOptions) -> bool {
+    options.bracket && scene.bracket_holds() && !options.transparent && !options.secondary && !method.bisects()
 }
 
 /// Specialization constants for `scene` marched by `method`.
@@ -600,6 +629,7 @@ impl Renderer {
         if !self.pipelines.contains_key(&key) {
             let spec = specialization(&self.scene, method, &key, self.grid.is_some());
             let spirv = match entry {
+                EntryPoint::March if self.grid.is_some() && brackets(&self.scene, method, options) => MARCH_BRACKET_SPV,
                 EntryPoint::March if self.grid.is_some() => MARCH_INDEXED_SPV,
                 EntryPoint::March => MARCH_SPV,
                 EntryPoint::BoundsProbe if self.grid.is_some() => BOUNDS_INDEXED_SPV,

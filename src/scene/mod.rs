@@ -242,6 +242,22 @@ impl Scene {
         self.groups.len() > 1 && self.primitives().any(|p| matches!(p, Primitive::Hrbf { .. } | Primitive::Affine { .. }))
     }
 
+    /// Whether a first crossing has a bracket the primitives give alone:
+    /// with iso > 0 and every primitive a point kernel of non-negative
+    /// weight, each group's sum is at least any one of its terms and the
+    /// max of the groups at least any group, so f >= 0 wherever one
+    /// primitive alone reaches iso (f is no further than there from its
+    /// first crossing), and f = -iso < 0 before the ray enters any
+    /// support. Planes, HRBF and affine terms, and negative weights, give
+    /// no such bound.
+    pub fn bracket_holds(&self) -> bool {
+        self.iso > 0.0
+            && self.primitives().all(|p| match p {
+                Primitive::Point { kernel: Kernel::Compact { weight, .. } | Kernel::Gaussian { weight, .. }, .. } => *weight >= 0.0,
+                _ => false,
+            })
+    }
+
     pub fn primitive_count(&self) -> usize {
         self.groups.iter().map(Vec::len).sum()
     }
