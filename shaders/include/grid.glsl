@@ -53,9 +53,10 @@ void primitive_cells(GpuPrimitive pr, out ivec3 lo, out ivec3 hi) {
 
 // Whether a grid primitive's sphere, padded like its box, meets the cell:
 // only those cells list it (about 0.76 of its box's cells for a radius of
-// one cell). A walk yields a primitive in the cell holding the point where
-// the query first meets the sphere, or the point of a point query, and
-// such a cell meets the sphere; the pad covers the walk's rounding.
+// one cell). A walk yields a primitive in the cell holding the query's
+// point nearest its centre, inside the sphere, or the point of a point
+// query, and such a cell meets the sphere; the pad covers the walk's
+// rounding.
 bool sphere_meets_cell(GpuPrimitive pr, ivec3 cell) {
     float h = globals.grid.w;
     vec3 lo = globals.grid.xyz + h * vec3(cell);

@@ -151,8 +151,8 @@ void cursor_advance(inout Cursor c) {
 // --- The spatial index's walk (SC_INDEX; grid.glsl has the lists). Per
 // group: its everywhere list, then the grid's lists along the query (the
 // one cell of a point; the cells a 3D DDA walks for an interval), each
-// primitive of the grid yielded in the first cell where the query meets
-// its support. Nested loops, so that a list entry costs a turn of a tight
+// primitive of the grid yielded once, in the cell holding the query's
+// point nearest its centre (grid_admits). Nested loops, so that a list entry costs a turn of a tight
 // loop: its index, one texel (the centre and the index radius) to test it,
 // and the rest of the primitive only when it is admitted.
 
@@ -247,9 +247,12 @@ float skip_empty_cells(vec3 o, vec3 u, float t0, float tmax) {
 // the DDA's cell c. A point query: a Gaussian is clipped at its radius for
 // the index, so that the field does not depend on the cell it is evaluated
 // in (compact kernels test their support themselves). An interval: a
-// primitive is yielded once, in the cell where the query first meets its
-// support (the cells' parts of the query partition it; the first and last
-// open to either side), and not at all when the query misses its support.
+// primitive is yielded once, in the cell holding the query's point nearest
+// its centre (the cells' parts of the query partition it; the first and
+// last open to either side), and not at all when that point is outside its
+// support. That point is inside the support, so its cell lists the
+// primitive; and it needs no square root, where the point where the query
+// enters the support did.
 bool grid_admits(Dda c, vec4 a, bool gaussian, Query q) {
     if (q.point) {
         vec3 d = q.o - a.xyz;
@@ -259,13 +262,11 @@ bool grid_admits(Dda c, vec4 a, bool gaussian, Query q) {
     float tc = dot(co, q.u);
     vec3 w = co - tc * q.u;
     float h2 = dot(w, w);
-    float r2 = a.w * a.w;
-    if (h2 >= r2) return false;
-    float s = sqrt(r2 - h2);
-    float t_in = max(q.t0, tc - s);
-    if (t_in > min(q.t1, tc + s)) return false;
+    float tn = clamp(tc, q.t0, q.t1);
+    float d = tc - tn;
+    if (h2 + d * d >= a.w * a.w) return false;
     bool last = c.tb >= c.t_end;
-    return (c.first_cell || t_in >= c.ta) && (last || t_in < c.tb);
+    return (c.first_cell || tn >= c.ta) && (last || tn < c.tb);
 }
 
 // The kind of grid primitive i: a point kind, known without a fetch when
