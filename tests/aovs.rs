@@ -1,5 +1,6 @@
-//! `render --aov depth,steps,normal`: the OpenEXR channels hold the frame's
-//! results pixel for pixel, and for a single blob sphere its closed form.
+//! `render --aov depth,steps,normal,turns,visits`: the OpenEXR channels hold
+//! the frame's results pixel for pixel, and for a single blob sphere its
+//! closed form.
 
 mod common;
 
@@ -33,7 +34,7 @@ fn exr_aovs_hold_the_frames_results_and_the_spheres_closed_form() {
         "-o",
         dir.join("sphere.png").to_str().unwrap(),
         "--aov",
-        "depth,steps,normal",
+        "depth,steps,normal,turns,visits",
         "--aov-output",
         exr_path.to_str().unwrap(),
     ]);
@@ -42,6 +43,7 @@ fn exr_aovs_hold_the_frames_results_and_the_spheres_closed_form() {
     assert_eq!((exr.layer_data[0].size.width(), exr.layer_data[0].size.height()), (w, h));
     let (z, steps) = (exr_channel(&exr, "Z"), exr_channel(&exr, "steps"));
     let normal = [exr_channel(&exr, "normal.X"), exr_channel(&exr, "normal.Y"), exr_channel(&exr, "normal.Z")];
+    let (turns, visits) = (exr_channel(&exr, "turns"), exr_channel(&exr, "visits"));
 
     // The frame's results, marched in this process: the same numbers.
     let ctx = gpu();
@@ -53,6 +55,14 @@ fn exr_aovs_hold_the_frames_results_and_the_spheres_closed_form() {
         let hit = p.counts[3] & FLAG_HIT != 0;
         assert_eq!(z[i].to_bits(), if hit { p.hit[3] } else { f32::INFINITY }.to_bits(), "pixel {i}: Z {} against the frame's {:?}", z[i], p.hit);
         assert_eq!(steps[i], p.counts[0] as f32, "pixel {i}: steps");
+        assert_eq!(turns[i], p.crossings[2] as f32, "pixel {i}: turns");
+        assert_eq!(visits[i], p.crossings[1] as f32, "pixel {i}: visits");
+        // A turn is a step or a refinement's evaluation, and a ray that
+        // reaches the blob visits it.
+        assert!(turns[i] >= steps[i], "pixel {i}: {} turns, fewer than its {} steps", turns[i], steps[i]);
+        if hit {
+            assert!(visits[i] >= 1.0, "pixel {i}: a hit with {} visits", visits[i]);
+        }
         for (a, axis) in normal.iter().enumerate() {
             assert_eq!(axis[i].to_bits(), p.hit[a].to_bits(), "pixel {i}: normal axis {a}");
         }

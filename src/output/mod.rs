@@ -141,6 +141,10 @@ pub enum Aov {
     Steps,
     /// Outward unit normal (channels normal.X, normal.Y, normal.Z; 0 on misses).
     Normal,
+    /// Loop turns of the march: steps and refinement evaluations, one fold each (channel turns).
+    Turns,
+    /// List positions the march's folds visited, admitted or not (channel visits): where the time goes, pixel by pixel.
+    Visits,
 }
 
 /// A 32-bit float OpenEXR file with the chosen AOVs.
@@ -171,6 +175,8 @@ fn exr_layers(frame: &Frame, rgb: bool, aovs: &[Aov]) -> Result<Vec<u8>> {
                     channels.push(channel(&format!("normal.{axis}"), &|p| p.hit[i]));
                 }
             }
+            Aov::Turns => channels.push(channel("turns", &|p| p.crossings[2] as f32)),
+            Aov::Visits => channels.push(channel("visits", &|p| p.crossings[1] as f32)),
         }
     }
     let layer = Layer::new(
