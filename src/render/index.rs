@@ -43,12 +43,27 @@ pub const CELL_PER_RADIUS: f64 = 1.0;
 /// fewer steps for segment tracing and 0.97x to 1.03x the steps for
 /// quadratic Taylor (docs/performance.md).
 pub const WINDOW_CELLS: f64 = 2.0;
-/// The same where most of the grid's primitives are Gaussians: a cell is
-/// then about 2.7 of their scales r (the clipping radius), and a bound
-/// over more than a few r is loose. On 6WG6 at 500x500 quadratic Taylor
-/// took 0.83x the time of 2 cells with 1 cell, and as long with 0.5 or
-/// 0.75 (docs/molecules.md).
-pub const GAUSSIAN_WINDOW_CELLS: f64 = 1.0;
+/// The same where most of the grid's primitives are Gaussians: two cells
+/// of [`GAUSSIAN_CELL_PER_RADIUS`], one clipping radius ρ, about 2.7 of
+/// their scales r; a bound over more than a few r is loose. On 6WG6 at
+/// 500x500 (cells of ρ) quadratic Taylor took 0.83x the time of 2ρ with
+/// 1ρ, and as long with 0.5ρ or 0.75ρ (docs/molecules.md).
+pub const GAUSSIAN_WINDOW_CELLS: f64 = 2.0;
+/// Cell size over the median index radius where most of the grid's
+/// primitives are Gaussians. [`CELL_PER_RADIUS`]'s argument holds for
+/// long queries; near a Gaussian surface the steps are short (bounded by
+/// the kernels' curvature, on the scale r = ρ/2.7), so most folds are
+/// nearly points, whose lists hold about `density (h + 2ρ)³` entries: less
+/// with smaller cells, while the entries, and the index build with them,
+/// grow as `((h + 2ρ)/h)³`. At 750x750, march and build GPU ms of
+/// quadratic Taylor with ρ, 0.75ρ and 0.5ρ: 1A8O 776, 700, 553; 1TII 829,
+/// 735, 602; 3KPR 765, 644, 529; 6WG6 1049, 892, 814; YiiP with hydrogens
+/// 1272, 1202, 1371 (its build alone 118, 193, 442 ms; docs/molecules.md).
+pub const GAUSSIAN_CELL_PER_RADIUS: f64 = 0.5;
+/// Cells at most per primitive: a few, and more where most are Gaussians,
+/// whose cells are finer (6WG6 holds 21 per atom at half a radius).
+const CELLS_PER_PRIMITIVE: usize = 8;
+const GAUSSIAN_CELLS_PER_PRIMITIVE: usize = 32;
 /// The clipped tails of a group's Gaussians add up to at most this
 /// fraction of iso anywhere (see [`index_radius`]).
 pub const GAUSSIAN_CLIP_FRACTION: f64 = 1e-3;
@@ -134,17 +149,30 @@ impl GridSpec {
         }
         let extent = (hi - lo).max(DVec3::splat(1e-9 * median.max(1e-30)));
         let groups = scene.groups.len();
-        let mut cell = CELL_PER_RADIUS * median;
+        let gaussians = 2 * scene.primitives().filter_map(clip::Gaussian::of).count() > n;
+        let (per_radius, per_primitive, window_cells) = if gaussians {
+            (GAUSSIAN_CELL_PER_RADIUS, GAUSSIAN_CELLS_PER_PRIMITIVE, GAUSSIAN_WINDOW_CELLS)
+        } else {
+            (CELL_PER_RADIUS, CELLS_PER_PRIMITIVE, WINDOW_CELLS)
+        };
+        // Finer cells for Gaussians, but not so fine that a primitive
+        // within a few medians of the largest leaves the grid for an
+        // everywhere list (its box would cover more than
+        // MAX_CELLS_PER_PRIMITIVE cells, which would also end the skipping
+        // of empty cells); nor coarser than CELL_PER_RADIUS's.
+        let largest = sorted.last().copied().unwrap_or(median);
+        let per_axis = f64::from(MAX_CELLS_PER_PRIMITIVE).cbrt().floor();
+        let grid_radius = 0.98 * (per_axis - 1.0) / 2.0; // radii over a cell that keep a box within it
+        let mut cell = (per_radius * median).max((largest / grid_radius).min(CELL_PER_RADIUS * median));
         // At most a few cells per primitive, and at most MAX_LISTS lists.
-        let max_cells = (8 * n).min(MAX_LISTS / groups.max(1) - 1).max(64) as f64;
+        let max_cells = (per_primitive * n).min(MAX_LISTS / groups.max(1) - 1).max(64) as f64;
         let cells = |c: f64| (extent / c).ceil().max(DVec3::ONE);
         while cells(cell).element_product() > max_cells {
             cell *= 1.25;
         }
         let d = cells(cell);
         let dims = [d.x as u32, d.y as u32, d.z as u32];
-        let gaussians = scene.primitives().filter_map(clip::Gaussian::of).count();
-        let window = cell * if 2 * gaussians > n { GAUSSIAN_WINDOW_CELLS } else { WINDOW_CELLS };
+        let window = cell * window_cells;
         let lists_per_group = (d.element_product() as usize) + 1;
         // Bounds that hold whichever way the GPU's f32 decides a primitive
         // on the edge of the everywhere test: at most its box's cells (and
