@@ -43,12 +43,16 @@ pub const CELL_PER_RADIUS: f64 = 1.0;
 /// fewer steps for segment tracing and 0.97x to 1.03x the steps for
 /// quadratic Taylor (docs/performance.md).
 pub const WINDOW_CELLS: f64 = 2.0;
-/// The same where most of the grid's primitives are Gaussians: two cells
-/// of [`GAUSSIAN_CELL_PER_RADIUS`], one clipping radius ρ, about 2.7 of
-/// their scales r; a bound over more than a few r is loose. On 6WG6 at
-/// 500x500 (cells of ρ) quadratic Taylor took 0.83x the time of 2ρ with
-/// 1ρ, and as long with 0.5ρ or 0.75ρ (docs/molecules.md).
-pub const GAUSSIAN_WINDOW_CELLS: f64 = 2.0;
+/// The same where most of the grid's primitives are Gaussians: one cell
+/// of [`GAUSSIAN_CELL_PER_RADIUS`], half a clipping radius ρ, about 1.35
+/// of their scales r; a bound over more than a few r is loose, and a
+/// longer interval walks more cells. At 750x750 with cells of ρ/2, GPU
+/// ms of the march with windows of one and two cells: quadratic Taylor
+/// 1A8O 500 and 547, 1TII 533 and 599, 3KPR 434 and 475, 6WG6 667 and
+/// 714, YiiP 815 and 927; segment tracing 806 and 915, 821 and 908, 6WG6
+/// 931 and 1023, YiiP 1256 and 1403 (one or two runs each), with more
+/// steps but cheaper folds.
+pub const GAUSSIAN_WINDOW_CELLS: f64 = 1.0;
 /// Cell size over the median index radius where most of the grid's
 /// primitives are Gaussians. [`CELL_PER_RADIUS`]'s argument holds for
 /// long queries; near a Gaussian surface the steps are short (bounded by
