@@ -152,9 +152,10 @@ void cursor_advance(inout Cursor c) {
 // group: its everywhere list, then the grid's lists along the query (the
 // one cell of a point; the cells a 3D DDA walks for an interval), each
 // primitive of the grid yielded once, in the cell holding the query's
-// point nearest its centre (grid_admits). Nested loops, so that a list entry costs a turn of a tight
-// loop: its index, one texel (the centre and the index radius) to test it,
-// and the rest of the primitive only when it is admitted.
+// point nearest its centre (grid_admits). Nested loops, so that a list
+// entry costs a turn of a tight loop: its index, one texel (the centre and
+// the index radius) to test it, and the rest of the primitive only when it
+// is admitted.
 
 uint list_start(uint list) {
     return texelFetch(cell_texels, int(list)).x;

@@ -62,7 +62,8 @@ pub const GAUSSIAN_WINDOW_CELLS: f64 = 1.0;
 /// grow as `((h + 2ρ)/h)³`. At 750x750, march and build GPU ms of
 /// quadratic Taylor with ρ, 0.75ρ and 0.5ρ: 1A8O 776, 700, 553; 1TII 829,
 /// 735, 602; 3KPR 765, 644, 529; 6WG6 1049, 892, 814; YiiP with hydrogens
-/// 1272, 1202, 1371 (its build alone 118, 193, 442 ms; docs/molecules.md).
+/// 1272, 1202, 1371 (its build alone 118, 193, 442 ms; one run each;
+/// docs/spatial-index.md).
 pub const GAUSSIAN_CELL_PER_RADIUS: f64 = 0.5;
 /// Cells at most per primitive: a few, and more where most are Gaussians,
 /// whose cells are finer (6WG6 holds 21 per atom at half a radius).
