@@ -225,7 +225,8 @@ impl NativeRenderer {
             job.samples = isomarch::render::offscreen::check_samples(n).map_err(raise)?;
         }
         let ctx = Arc::clone(&self.ctx);
-        let (frame, stats, _, _) = py.detach(move || render_frame_indexed(&ctx, &job)).map_err(raise)?;
+        let isomarch::render::offscreen::FrameReport { frame, march: stats, .. } =
+            py.detach(move || render_frame_indexed(&ctx, &job)).map_err(raise)?;
         let shaded = frame.shaded();
         let mut rgba = Vec::with_capacity(frame.pixels.len() * 4);
         for p in shaded.pixels() {

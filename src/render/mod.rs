@@ -225,7 +225,7 @@ impl MarchOptions {
             any_hit: false,
             // ISOMARCH_BRACKET=off measures what the bracket buys (as
             // ISOMARCH_INDEX=off does for the index).
-            bracket: std::env::var("ISOMARCH_BRACKET").map_or(true, |v| v != "off"),
+            bracket: env_switch("ISOMARCH_BRACKET").unwrap_or(true),
             generic: false,
             refine: scene.marching.refine,
         }
@@ -262,8 +262,37 @@ pub struct Renderer {
     slice_steps: u32,
     pipelines: HashMap<PipelineKey, ComputePipeline>,
     submitter: Submitter,
+    /// Wall-clock nanoseconds spent creating pipelines and compiling their
+    /// code ([`Renderer::warm_up`]), apart from every GPU time reported.
+    pipeline_ns: f64,
     /// Give up when the GPU is not done by then.
     pub timeout: Duration,
+}
+
+/// The switches the environment may turn off to measure what they buy.
+pub const ENV_SWITCHES: [&str; 2] = ["ISOMARCH_INDEX", "ISOMARCH_BRACKET"];
+
+/// A switch of [`ENV_SWITCHES`]: on unless set to `off` (or `0`);
+/// `Err` names a value that is neither, which [`check_environment`]
+/// refuses before any work (elsewhere it leaves the switch on).
+fn env_switch(name: &str) -> Result<bool> {
+    match std::env::var(name) {
+        Err(_) => Ok(true),
+        Ok(v) => match v.trim().to_ascii_lowercase().as_str() {
+            "on" | "1" | "" => Ok(true),
+            "off" | "0" => Ok(false),
+            _ => bail!("{name}={v:?}: expected on or off"),
+        },
+    }
+}
+
+/// Checks the environment's switches ([`ENV_SWITCHES`]): a value that is
+/// neither on nor off is an error, not silently on.
+pub fn check_environment() -> Result<()> {
+    for name in ENV_SWITCHES {
+        env_switch(name)?;
+    }
+    Ok(())
 }
 
 /// A primitive's reach on the GPU (`GpuPrimitive::c.z`) is where its kernel
@@ -410,7 +439,7 @@ impl Renderer {
     /// measure what the index buys). Fails with a one-line error when it
     /// does not fit.
     pub fn new(ctx: &Arc<Context>, scene: &Scene) -> Result<Renderer> {
-        let indexed = std::env::var("ISOMARCH_INDEX").map_or(true, |v| v != "off");
+        let indexed = env_switch("ISOMARCH_INDEX").unwrap_or(true);
         Renderer::with_index(ctx, scene, indexed)
     }
 
@@ -467,6 +496,7 @@ impl Renderer {
             slice_steps: 0,
             pipelines: HashMap::new(),
             submitter: Submitter::new(ctx)?,
+            pipeline_ns: 0.0,
             ctx: Arc::clone(ctx),
             scene: scene.clone(),
             timeout: Duration::from_secs(600),
@@ -492,9 +522,12 @@ impl Renderer {
         };
         self.globals.write(0, &[globals(&self.scene, 2.0, self.scene.marching.quad, Some(&grid))])?;
         if self.index_pipeline.is_none() {
+            let started = Instant::now();
             let p = ComputePipeline::new(&self.ctx, INDEX_SPV, layout::BINDINGS, PUSH_CONSTANT_BYTES, &[])?;
             p.bind(&self.bound_buffers())?;
+            self.warm_up((p.pipeline, p.layout, p.set))?;
             self.index_pipeline = Some(p);
+            self.pipeline_ns += started.elapsed().as_secs_f64() * 1e9;
         }
         let p = self.index_pipeline.as_ref().expect("created above");
         let (pipeline, layout, set) = (p.pipeline, p.layout, p.set);
@@ -627,6 +660,7 @@ impl Renderer {
     ) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
         let key = PipelineKey::new(entry, method, options);
         if !self.pipelines.contains_key(&key) {
+            let started = Instant::now();
             let spec = specialization(&self.scene, method, &key, self.grid.is_some());
             let spirv = match entry {
                 EntryPoint::March if self.grid.is_some() && brackets(&self.scene, method, options) => MARCH_BRACKET_SPV,
@@ -637,10 +671,40 @@ impl Renderer {
             };
             let p = ComputePipeline::new(&self.ctx, spirv, layout::BINDINGS, PUSH_CONSTANT_BYTES, &spec)?;
             p.bind(&self.bound_buffers())?;
+            self.warm_up((p.pipeline, p.layout, p.set))?;
             self.pipelines.insert(key, p);
+            self.pipeline_ns += started.elapsed().as_secs_f64() * 1e9;
         }
         let p = &self.pipelines[&key];
         Ok((p.pipeline, p.layout, p.set))
+    }
+
+    /// Wall-clock milliseconds this renderer has spent creating pipelines
+    /// and compiling their code, which no GPU time includes.
+    pub fn pipeline_ms(&self) -> f64 {
+        self.pipeline_ns * 1e-6
+    }
+
+    /// Runs a new pipeline once over no rays (one workgroup whose
+    /// invocations all return at once): drivers that compile a pipeline's
+    /// code on its first dispatch (lavapipe builds its LLVM variant then)
+    /// compile it here, so that the timed dispatches measure the march and
+    /// not the compiler. Every kernel returns first thing when its
+    /// invocation is past `push[0]`, the count.
+    fn warm_up(&mut self, handles: (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)) -> Result<()> {
+        let deadline = Instant::now() + self.timeout;
+        let (pipeline, layout, set) = handles;
+        let push = [0u32, 1, self.slice_steps];
+        self.submitter.run(deadline, self.timeout, |d, cmd| {
+            // SAFETY: as in `dispatch`; no invocation reads or writes a buffer.
+            unsafe {
+                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+                d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
+                d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&push));
+                d.cmd_dispatch(cmd, 1, 1, 1);
+            }
+        })?;
+        Ok(())
     }
 
     /// Records one dispatch over `count` rays with these push constants.

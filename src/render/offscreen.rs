@@ -87,6 +87,9 @@ impl RenderJob {
             None if image == FileFormat::Exr => self.output.clone(),
             None => self.output.with_extension("exr"),
         });
+        if let Some(path) = aovs.as_ref().filter(|p| p.is_dir()) {
+            anyhow::bail!("--aov-output {}: is a folder, not a file: give the AOVs' file with --aov-output", path.display());
+        }
         Ok(JobOutputs { image, aovs })
     }
 }
@@ -98,6 +101,13 @@ pub struct RenderStats {
     pub device: String,
     pub width: u32,
     pub height: u32,
+    /// Camera rays per pixel (`--samples`); the statistics count them all.
+    pub samples: u32,
+    /// Wall-clock time spent creating the frame's pipelines and compiling
+    /// their code (a warm-up dispatch each), which `gpu_ms` and the index's
+    /// `build_ns` leave out; near zero when the driver's shader cache
+    /// already holds them.
+    pub pipeline_ms: f64,
     #[serde(flatten)]
     pub march: MarchStats,
     /// The spatial index the frame was marched with (`null` in JSON for
@@ -128,18 +138,30 @@ impl Memory {
 
 /// Marches the job's camera rays and returns the frame.
 pub fn render_frame(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Frame, MarchStats)> {
-    render_frame_indexed(ctx, job).map(|(frame, stats, _, _)| (frame, stats))
+    render_frame_indexed(ctx, job).map(|r| (r.frame, r.march))
 }
 
-/// [`render_frame`], what the build of the spatial index made, and the
-/// memory in use while the renderer held the scene.
-pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<(Frame, MarchStats, Option<IndexStats>, Memory)> {
+/// A frame and what making it took beyond the march's statistics.
+pub struct FrameReport {
+    pub frame: Frame,
+    pub march: MarchStats,
+    /// What the build of the spatial index made (`None` without one).
+    pub index: Option<IndexStats>,
+    /// The memory in use while the renderer held the scene.
+    pub memory: Memory,
+    /// Wall-clock milliseconds of pipeline creation and compilation
+    /// ([`Renderer::pipeline_ms`]), outside every GPU time.
+    pub pipeline_ms: f64,
+}
+
+/// [`render_frame`], with the rest of a [`FrameReport`].
+pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<FrameReport> {
     let scene = job.scene.recentred_on_camera();
     let mut renderer = Renderer::new(ctx, &scene)?;
     renderer.timeout = job.timeout;
-    let (frame, stats) = march_image(&mut renderer, job.method, MarchOptions::for_scene(&scene), &scene, (job.width, job.height), job.samples)?;
+    let (frame, march) = march_image(&mut renderer, job.method, MarchOptions::for_scene(&scene), &scene, (job.width, job.height), job.samples)?;
     let memory = Memory::now(ctx);
-    Ok((frame, stats, renderer.index_stats(), memory))
+    Ok(FrameReport { frame, march, index: renderer.index_stats(), memory, pipeline_ms: renderer.pipeline_ms() })
 }
 
 /// `n` rays per pixel, checked as `--samples` (1 to `scene::MAX_SAMPLES`).
@@ -251,13 +273,15 @@ pub fn march_frame(renderer: &mut Renderer, method: Method, options: MarchOption
 /// Renders and writes every requested file. All files are encoded before
 /// the first is written, and each is written atomically.
 pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStats> {
-    let (frame, march, index, memory) = render_frame_indexed(ctx, job)?;
+    let FrameReport { frame, march, index, memory, pipeline_ms } = render_frame_indexed(ctx, job)?;
     let stats = RenderStats {
         scene: job.scene.source.clone(),
         method: job.method.to_string(),
         device: ctx.info.name.clone(),
         width: job.width,
         height: job.height,
+        samples: job.samples,
+        pipeline_ms,
         march,
         index,
         memory,
