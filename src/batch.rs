@@ -9,7 +9,63 @@ use anyhow::{Result, bail};
 pub mod merge;
 
 /// The header of a batch's per-frame statistics CSV.
-pub const CSV_HEADER: &str = "frame,time_s,file,width,height,method,steps_per_ray,evals_per_ray,hit_rate,gpu_ms,wall_ms,index_build_ms,shadow_steps_per_ray,ao_steps_per_ray,any_hit_gpu_ms";
+/// The last column, `scene`, is the scene or molecule file the frame shows:
+/// a batch appends only to a CSV of its own scene ([`check_csv`]).
+pub const CSV_HEADER: &str = "frame,time_s,file,width,height,method,steps_per_ray,evals_per_ray,hit_rate,gpu_ms,wall_ms,index_build_ms,shadow_steps_per_ray,ao_steps_per_ray,any_hit_gpu_ms,scene";
+
+/// A CSV field in double quotes, its quotes doubled.
+fn quoted(field: &str) -> String {
+    format!("\"{}\"", field.replace('"', "\"\""))
+}
+
+/// The last field of a CSV row when it is quoted, as [`quoted`] writes
+/// the `scene` column; `None` otherwise.
+fn last_quoted_field(row: &str) -> Option<String> {
+    let body = row.strip_suffix('"')?;
+    // Walk back over doubled quotes to the lone quote that opens the field.
+    let bytes = body.as_bytes();
+    let mut i = bytes.len();
+    while i > 0 {
+        if bytes[i - 1] == b'"' {
+            if i >= 2 && bytes[i - 2] == b'"' {
+                i -= 2;
+                continue;
+            }
+            return Some(body[i..].replace("\"\"", "\""));
+        }
+        i -= 1;
+    }
+    None
+}
+
+/// Checks that a batch of `scene` may append to the statistics CSV whose
+/// text is `text`: its header is this version's, and every row is a frame
+/// of the same scene. Two batches of different scenes sharing the default
+/// `frames.csv` would list the same frame numbers twice with nothing to
+/// tell them apart.
+pub fn check_csv(csv: &std::path::Path, text: &str, scene: &str) -> Result<()> {
+    let mut lines = text.lines();
+    let Some(header) = lines.next() else { return Ok(()) };
+    if header != CSV_HEADER {
+        bail!(
+            "{}: not this version's batch statistics (its header differs), so this batch's rows are not appended to it: name another file with --csv, or remove it",
+            csv.display()
+        );
+    }
+    for (i, row) in lines.enumerate().filter(|(_, r)| !r.trim().is_empty()) {
+        let theirs = last_quoted_field(row);
+        if theirs.as_deref() != Some(scene) {
+            bail!(
+                "{}:{}: lists a frame of {}, and this batch renders {scene}: give this batch its own statistics file with --csv (or remove {} first)",
+                csv.display(),
+                i + 2,
+                theirs.as_deref().unwrap_or("another scene"),
+                csv.display()
+            );
+        }
+    }
+    Ok(())
+}
 
 /// Frames `start..end` (end excluded), parsed from Rust range syntax:
 /// `a..b` excludes b, `a..=b` includes it, a lone `n` is one frame.
@@ -137,6 +193,19 @@ mod tests {
     }
 
     #[test]
+    fn the_scene_column_reads_back_and_other_scenes_are_refused() {
+        for scene in ["scenes/fig16.ron", "a \"quoted\", name.pdb", ""] {
+            assert_eq!(last_quoted_field(&format!("0,1.0,{}", quoted(scene))).as_deref(), Some(scene));
+        }
+        let csv = std::path::Path::new("out/frames.csv");
+        let text = format!("{CSV_HEADER}\n0,0.000000,\"out/f_0.png\",8,8,segment,1,1,1,,1,,,,,{}\n", quoted("scenes/fig16.ron"));
+        check_csv(csv, &text, "scenes/fig16.ron").unwrap();
+        let e = check_csv(csv, &text, "3KPR.pdb").unwrap_err().to_string();
+        assert!(e.contains("out/frames.csv:2: lists a frame of scenes/fig16.ron, and this batch renders 3KPR.pdb"), "{e}");
+        assert!(check_csv(csv, "frame,time_s\n", "x").is_err(), "an older header");
+    }
+
+    #[test]
     fn shards_partition_a_range() {
         let env = |_: &str| None;
         let shards: Vec<Shard> = (0..3).map(|i| Shard::resolve(Some(&format!("{i}/3")), None, env).unwrap()).collect();
@@ -234,7 +303,13 @@ pub fn run(
             keep
         })
         .collect();
-    let new_csv = !csv.exists();
+    let existing = match std::fs::read_to_string(csv) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+        Err(e) => return Err(e).with_context(|| format!("reading {}", csv.display())),
+    };
+    check_csv(csv, &existing, &job.scene.source)?;
+    let new_csv = existing.trim().is_empty();
     if let Some(dir) = csv.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
@@ -300,9 +375,9 @@ pub fn run(
         };
         writeln!(
             log,
-            "{frame},{:.6},\"{}\",{},{},{},{:.4},{:.2},{:.5},{},{:.1},{index_ms},{}",
+            "{frame},{:.6},{},{},{},{},{:.4},{:.2},{:.5},{},{:.1},{index_ms},{},{}",
             frame as f64 / fps,
-            path.display().to_string().replace('"', "\"\""),
+            quoted(&path.display().to_string()),
             job.width,
             job.height,
             job.method,
@@ -311,7 +386,8 @@ pub fn run(
             stats.hit_rate,
             stats.gpu_ms.map_or(String::new(), |ms| format!("{ms:.2}")),
             started.elapsed().as_secs_f64() * 1e3,
-            any_hit_columns(stats.any_hit.as_ref())
+            any_hit_columns(stats.any_hit.as_ref()),
+            quoted(&job.scene.source)
         )?;
         log.flush()?;
         summary.rendered += 1;

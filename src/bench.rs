@@ -710,11 +710,14 @@ pub fn markdown(report: &BenchReport) -> String {
         (Some(r), ..) => format!("{r:.3}x"),
         _ => "n/a".to_string(),
     };
+    // An any-hit query's answer is a yes or no, not a distance: its rows
+    // have no error to show.
+    let error = |e: f64| if report.any_hit.is_some() { "n/a".to_string() } else { format!("{e:.2e}") };
     for m in &report.methods {
         // The median time per ray over `count` units of work per ray.
         let per = |count: f64| m.ns_per_ray.filter(|_| count > 0.0).map_or("n/a".to_string(), |ns| format!("{:.1}", ns / count));
         s.push_str(&format!(
-            "| {} | {:.2} | {:.1} | {:.2} | {} | {} | {} | {:.2} | {:.4} | {:.5} | {:.5} | {:.2e} | {:.2e} | {:.3}x | {} |\n",
+            "| {} | {:.2} | {:.1} | {:.2} | {} | {} | {} | {:.2} | {:.4} | {:.5} | {:.5} | {} | {} | {:.3}x | {} |\n",
             m.method,
             m.steps_per_ray,
             m.evals_per_ray,
@@ -726,8 +729,8 @@ pub fn markdown(report: &BenchReport) -> String {
             m.hit_rate,
             m.miss_rate,
             m.false_hit_rate,
-            m.mean_abs_error,
-            m.max_abs_error,
+            error(m.mean_abs_error),
+            error(m.max_abs_error),
             m.step_ratio,
             ratio(m),
         ));

@@ -313,7 +313,7 @@ impl Input {
             "{}: {frames} frame{}{}",
             stager.trajectory.source,
             if frames == 1 { "" } else { "s" },
-            time.map_or(String::new(), |t| format!(", the first at {t} ps"))
+            time.map_or(String::new(), |t| format!(", the first at {} ps", isomarch::molecule::trajectory::ps(t)))
         );
         Ok(Opened::Frames(stager))
     }
@@ -737,8 +737,8 @@ struct BenchArgs {
     /// scene camera's pixel rays, without repeats: the rays a rendered
     /// frame marches. The frame is the scene's resolution, or WxH when
     /// given (`--camera 750x750`).
-    #[arg(long, value_parser = parse_size, value_name = "WxH", num_args = 0..=1, default_missing_value = "0x0")]
-    camera: Option<(u32, u32)>,
+    #[arg(long, value_parser = parse_size, value_name = "WxH", num_args = 0..=1)]
+    camera: Option<Option<(u32, u32)>>,
     /// Run the whole list of methods this many times, interleaved, and
     /// report each time as the median over repeats with its range, and
     /// each time ratio as the median of the ratios within each repeat
@@ -881,6 +881,21 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     }
 }
 
+/// A line on stderr where the method chosen is known to be slow on the
+/// scene, so that a surprising frame time comes with its reason.
+fn method_note(scene: &Scene, method: Method) {
+    if method == Method::Sphere && scene.has_gaussians() {
+        eprintln!(
+            "note: sphere tracing steps by one global Lipschitz bound, which Gaussian kernels (molecules) make small: expect many steps per ray; quadratic-taylor (the default) takes far fewer"
+        );
+    }
+}
+
+/// `n` and a noun, plural unless `n` is 1: "1 frame", "6 frames".
+fn count(n: u64, noun: &str) -> String {
+    if n == 1 { format!("1 {noun}") } else { format!("{n} {noun}s") }
+}
+
 // Checks of flags that two subcommands declare, each with its own help.
 
 /// `--fps` of `render --frames` and `view`.
@@ -934,8 +949,12 @@ fn render(args: RenderArgs) -> Result<()> {
         let (scene, stager) = match input {
             Input::Still(scene) => (scene, None),
             Input::Frames(mut stager) => {
-                // Every frame asked for must exist before any is rendered.
-                stager.check_frame(range.end.saturating_sub(1).max(range.start) as usize)?;
+                // Every frame asked for must exist before any is rendered;
+                // the message names the first that does not.
+                let first_missing = range.start.max(stager.len() as u64) as usize;
+                if first_missing < range.end as usize {
+                    stager.check_frame(first_missing).with_context(|| format!("--frames {}..{}", range.start, range.end))?;
+                }
                 (stager.scene(range.start as usize)?.0, Some(stager))
             }
         };
@@ -946,6 +965,7 @@ fn render(args: RenderArgs) -> Result<()> {
     let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
     let scene = scene.at_time(check_time(args.batch.time)?);
     let method = scene.marching.method;
+    method_note(&scene, method);
     let job = RenderJob {
         heatmap: args.heatmap,
         steps_max: args.steps_max,
@@ -960,10 +980,11 @@ fn render(args: RenderArgs) -> Result<()> {
     let gpu = args.gpu.open()?;
     let s = render_to_files(&gpu.ctx, &job)?;
     eprintln!(
-        "{}: {}x{} with {} on {}: {:.2} steps/ray, {:.1} evals/ray, {:.2} turns/ray, {:.1} visits/eval, hit rate {:.3}{}",
+        "{}: {}x{}{} with {} on {}: {:.2} steps/ray, {:.1} evals/ray, {:.2} turns/ray, {:.1} visits/eval, hit rate {:.3}{}; pipelines built in {:.1} ms (outside GPU time)",
         job.output.display(),
         s.width,
         s.height,
+        if s.samples > 1 { format!(", {} samples per pixel,", s.samples) } else { String::new() },
         s.method,
         s.device,
         s.march.steps_per_ray,
@@ -975,7 +996,8 @@ fn render(args: RenderArgs) -> Result<()> {
             ", GPU {ms:.1} ms ({}, {})",
             s.march.ns_per_eval.map_or("n/a".into(), |v| format!("{v:.1} ns/eval")),
             s.march.ns_per_turn.map_or("n/a".into(), |v| format!("{v:.1} ns/turn"))
-        ))
+        )),
+        s.pipeline_ms
     );
     if let Some(a) = s.march.any_hit {
         eprintln!(
@@ -1022,14 +1044,15 @@ fn render_frames(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Sc
     .context("installing the signal handler")?;
     let gpu = args.gpu.open()?;
     let method = scene.marching.method;
+    method_note(&scene, method);
     let job = RenderJob {
         samples: isomarch::render::offscreen::check_samples(args.samples.unwrap_or(scene.camera.samples))?,
         ..RenderJob::new(scene, method, size, output.clone(), gpu.timeout)
     };
     let s = isomarch::batch::run(&gpu.ctx, &job, stager, &pattern, range, fps, shard, batch.skip_existing, &csv, &stop)?;
     eprintln!(
-        "{} frames rendered, {} kept from disk (shard {}/{}); statistics in {}",
-        s.rendered,
+        "{} rendered, {} kept from disk (shard {}/{}); statistics in {}",
+        count(s.rendered, "frame"),
         s.skipped,
         shard.index,
         shard.count,
@@ -1059,6 +1082,7 @@ fn view(args: ViewArgs) -> Result<()> {
             (scene, Some(isomarch::view::Playback { stager, start, every_frame: args.every_frame, loops: args.loops }))
         }
     };
+    method_note(&scene, scene.marching.method);
     let fps = check_fps(args.fps)?;
     if !(args.preview_ms.is_finite() && args.preview_ms > 0.0) {
         bail!("--preview-ms must be positive, got {}", args.preview_ms);
@@ -1088,8 +1112,12 @@ fn view(args: ViewArgs) -> Result<()> {
     };
     let s = isomarch::view::run(options)?;
     println!(
-        "presented {} frames ({} at full resolution) in {:.1} s; last: {}, {:.2} steps/ray",
-        s.presented, s.full_frames, s.seconds, s.method, s.steps_per_ray
+        "presented {} ({} at full resolution) in {:.1} s; last: {}, {:.2} steps/ray",
+        count(s.presented, "frame"),
+        s.full_frames,
+        s.seconds,
+        s.method,
+        s.steps_per_ray
     );
     if let Some(p) = &s.playback {
         println!(
@@ -1122,6 +1150,13 @@ fn tradeoff(args: TradeoffArgs) -> Result<()> {
         isomarch::tradeoff::plot(&points, &title, &dir.join("tradeoff.png"), &dir.join("tradeoff.svg"))?;
         eprintln!("wrote {}/tradeoff.png, .svg from its tradeoff.csv", dir.display());
         return Ok(());
+    }
+    if isomarch::molecule::is_molecule(&path) || path.extension().is_some_and(|e| e.eq_ignore_ascii_case("psf")) {
+        bail!(
+            "{}: tradeoff takes a scene file (.ron), not a molecule; `isomarch scene {} -o scene.ron` writes the molecule's",
+            path.display(),
+            path.display()
+        );
     }
     let scene = Scene::load(&path)?.at_time(0.0);
     let default = if quick { "segment,quadratic-taylor" } else { "sphere,segment,linear-taylor,quadratic-taylor,quadratic" };
@@ -1235,7 +1270,7 @@ fn frames(args: FramesArgs) -> Result<()> {
         }
         writeln!(out, "{row}")?;
     }
-    eprintln!("{}: {} frames of {sites} atoms", t.source, t.len());
+    eprintln!("{}: {} of {sites} atoms", t.source, count(t.len() as u64, "frame"));
     Ok(())
 }
 
@@ -1292,7 +1327,7 @@ fn bench(args: BenchArgs) -> Result<()> {
     // An animated scene is measured as posed at time 0.
     let scene = Input::open(&args.scene, args.trajectory.as_deref(), &args.molecule, &args.march, &args.play)?.scene(args.play.frame)?.at_time(0.0);
     let variants = args.variants.variants(&scene);
-    let camera = args.camera.map(|(w, h)| if w == 0 { (scene.camera.width, scene.camera.height) } else { (w, h) });
+    let camera = args.camera.map(|size| size.unwrap_or((scene.camera.width, scene.camera.height)));
     let plan = bench::Plan { methods: &methods, variants: &variants, rays, seed: args.seed, repeats: args.repeat, camera, any_hit: args.any_hit };
     plan.check()?;
     let gpu = args.gpu.open()?;
@@ -1340,6 +1375,7 @@ fn finish(ctx: &Context) -> Result<()> {
 struct Interrupted;
 
 fn run(cli: Cli) -> Result<()> {
+    isomarch::render::check_environment()?;
     match cli.command {
         Command::Info => info(),
         Command::Render(args) => render(args),
@@ -1355,6 +1391,11 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn main() -> ExitCode {
+    // A closed pipe (`isomarch frames ... | head`) ends the process quietly,
+    // as it ends command-line tools written in C: Rust ignores SIGPIPE, so
+    // each write would fail with "Broken pipe" and print! would panic.
+    // SAFETY: the first thing main does, before any other thread exists.
+    unsafe { libc::signal(libc::SIGPIPE, libc::SIG_DFL) };
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,

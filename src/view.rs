@@ -169,10 +169,21 @@ pub struct ViewSummary {
     pub playback: Option<PlaybackStats>,
 }
 
+/// winit's error without the source location it prefixes (`os error at
+/// /root/.cargo/registry/.../mod.rs:765: neither WAYLAND_DISPLAY nor ...`),
+/// which is winit's, not the user's, business.
+fn without_location(message: &str) -> String {
+    match message.split_once(".rs:").and_then(|(_, rest)| rest.split_once(": ")) {
+        Some((line, text)) if line.chars().all(|c| c.is_ascii_digit()) => text.to_string(),
+        _ => message.to_string(),
+    }
+}
+
 /// Runs the viewer until the window closes (Esc, the close button, or
 /// `exit_after` frames).
 pub fn run(options: ViewOptions) -> Result<ViewSummary> {
-    let event_loop = EventLoop::new().context("opening the window system (no display? under CI, run inside Xvfb)")?;
+    let event_loop = EventLoop::new()
+        .map_err(|e| anyhow!("opening the window system: {} (no display? under CI, run inside Xvfb)", without_location(&e.to_string())))?;
     let mut app = App::new(options)?;
     event_loop.run_app(&mut app).context("running the window's event loop")?;
     if let Some(e) = app.error.take() {
@@ -402,6 +413,17 @@ impl Schedule {
         self.ns_per_ray = Some(self.ns_per_ray.map_or(ns, |old| 0.5 * (old + ns)));
     }
 
+    /// Whether the window shows the whole frame: at full resolution, every
+    /// tile and anti-aliasing pass of `samples` marched, nothing pending.
+    fn finished(&self, samples: u32) -> bool {
+        !self.dirty
+            && !self.shown_rgb.is_empty()
+            && self.progressive.is_none()
+            && !self.wants_full
+            && self.preview_divisor == 1
+            && (self.next_sample >= samples || samples <= 1)
+    }
+
     /// Rays that fit `budget` at the measured cost per ray (the first frame
     /// of a method has no cost yet: start small).
     fn affordable_rays(&self, budget: Duration) -> f64 {
@@ -550,7 +572,19 @@ impl App {
         });
         let img = image::RgbImage::from_raw(w, h, self.displayed()).ok_or_else(|| anyhow!("screenshot size"))?;
         output::write_atomic(&path, &output::png_bytes(&img)?)?;
-        eprintln!("saved {}", path.display());
+        if self.schedule.finished(self.options.samples) {
+            eprintln!("saved {}", path.display());
+        } else {
+            eprintln!(
+                "saved {}: a preview ({}), since the view was still changing; pause it (--paused, or Space) for the full frame",
+                path.display(),
+                if self.schedule.preview_divisor > 1 {
+                    format!("1/{} resolution", self.schedule.preview_divisor)
+                } else {
+                    "the full frame not yet complete".to_string()
+                }
+            );
+        }
         Ok(())
     }
 
@@ -723,8 +757,13 @@ impl App {
         if let Some(n) = self.options.exit_after
             && self.schedule.presented >= n
         {
-            el.exit();
-            return Ok(());
+            // A screenshot waits for the whole frame unless the view moves,
+            // where every frame is a preview (its line says so).
+            let moving = (self.camera.playing && self.animated()) || self.input.moving();
+            if self.options.screenshot.is_none() || moving || self.schedule.finished(self.options.samples) {
+                el.exit();
+                return Ok(());
+            }
         }
         if self.player.as_ref().is_some_and(|p| p.done()) && !self.schedule.dirty {
             el.exit();
@@ -809,7 +848,7 @@ impl App {
         if let Some(p) = &self.player {
             title.push_str(&format!(" | frame {}/{}", p.frame, p.len));
             if let Some(t) = p.time_ps {
-                title.push_str(&format!(" ({t} ps)"));
+                title.push_str(&format!(" ({} ps)", crate::molecule::trajectory::ps(t)));
             }
         }
         if camera.speed != 1.0 {

@@ -300,3 +300,45 @@ fn batch_frames_equal_single_renders_at_their_times() {
         assert_ne!(frames[0], frames[n], "frames 0 and {n} are identical: nothing moves");
     }
 }
+
+/// Two batches of different scenes into one folder share the default
+/// `frames.csv`: the second is refused before it renders, in one line
+/// that says what to do, and the CSV keeps only the first's rows; the same
+/// scene's batch may append (a resumed batch, another range), and with
+/// its own `--csv` the second batch runs.
+#[test]
+fn a_batch_does_not_append_rows_to_another_scenes_csv() {
+    let dir = scratch("batch-two-scenes");
+    let csv = dir.join("frames.csv");
+    let out = render_batch(&dir, &["--frames", "0..2"], &[]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let other = Command::new(bin())
+        .args(["render", "scenes/fig1.ron", "--size", "32x32", "--frames", "0..2", "-o"])
+        .arg(dir.join("g_####.png"))
+        .current_dir(repo_root())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&other.stderr);
+    assert_eq!(other.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("lists a frame of scenes/default.ron, and this batch renders scenes/fig1.ron") && stderr.contains("--csv"), "{stderr}");
+    assert!(!dir.join("g_0000.png").exists(), "the refused batch rendered");
+    assert_eq!(csv_frames(&csv), vec![0, 1]);
+    // The same scene appends: frames 2 and 3 after 0 and 1.
+    let out = render_batch(&dir, &["--frames", "2..4"], &[]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(csv_frames(&csv), vec![0, 1, 2, 3]);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.lines().skip(1).all(|l| l.ends_with(",\"scenes/default.ron\"")), "{text}");
+    // Its own CSV: the other scene runs.
+    let own = Command::new(bin())
+        .args(["render", "scenes/fig1.ron", "--size", "32x32", "--frames", "0..2", "-o"])
+        .arg(dir.join("g_####.png"))
+        .arg("--csv")
+        .arg(dir.join("fig1.csv"))
+        .current_dir(repo_root())
+        .output()
+        .unwrap();
+    assert!(own.status.success(), "{}", String::from_utf8_lossy(&own.stderr));
+    assert_eq!(csv_frames(&dir.join("fig1.csv")), vec![0, 1]);
+}

@@ -197,3 +197,32 @@ fn fig10_step_ratios_are_the_papers_table_1_within_a_quarter() {
         assert!((ratio / paper - 1.0).abs() <= 0.25, "{}: {ratio:.3} of segment's steps, the paper's {paper:.3}", row["method"]);
     }
 }
+
+/// `bench --camera` without a size samples the scene camera's own frame
+/// (its `resolution`), as `--help` says; with a size, that frame.
+#[test]
+fn bench_camera_takes_the_scenes_resolution_when_no_size_is_given() {
+    let (text, report) = bench("fig10.ron", &["--methods", "segment", "--camera"], "bench-camera-default");
+    assert_eq!(report["camera"], serde_json::json!([512, 512]), "{report}");
+    assert!(text.contains("of the camera's 512x512 frame"), "{text}");
+    let (_, report) = bench("fig10.ron", &["--methods", "segment", "--camera", "64x48"], "bench-camera-size");
+    assert_eq!(report["camera"], serde_json::json!([64, 48]), "{report}");
+}
+
+/// An any-hit query answers yes or no: its table shows no error columns
+/// (they printed `0.00e0`, as if measured).
+#[test]
+fn bench_any_hit_prints_no_error_columns() {
+    let (text, _) = bench("fig10.ron", &["--methods", "segment,quadratic-taylor", "--any-hit"], "bench-any-hit-errors");
+    let header = text.lines().find(|l| l.starts_with("| method | steps/ray")).unwrap_or_else(|| panic!("no table: {text}"));
+    fn cells(l: &str) -> Vec<&str> {
+        l.split('|').map(str::trim).collect()
+    }
+    let at = |name: &str| cells(header).iter().position(|c| *c == name).unwrap_or_else(|| panic!("no {name} column: {header}"));
+    let rows: Vec<&str> = text.lines().filter(|l| l.starts_with("| segment |") || l.starts_with("| quadratic-taylor |")).take(2).collect();
+    assert_eq!(rows.len(), 2, "{text}");
+    for row in rows {
+        assert_eq!(cells(row)[at("mean err")], "n/a", "{row}");
+        assert_eq!(cells(row)[at("max err")], "n/a", "{row}");
+    }
+}

@@ -414,3 +414,20 @@ fn a_ribosome_of_165175_atoms_renders_with_its_memory_in_the_statistics() {
     colours.dedup();
     assert!(colours.len() > 100, "a nearly uniform image: {} colours", colours.len());
 }
+
+/// Sphere tracing's one global bound is slow on Gaussian fields: chosen
+/// for a molecule, it comes with a line saying so (and not for a scene of
+/// compact kernels, where it is only the baseline).
+#[test]
+fn sphere_tracing_a_molecule_comes_with_a_note() {
+    let dir = scratch("sphere-note");
+    let note = "note: sphere tracing steps by one global Lipschitz bound";
+    let out = run(&["render", pdb_1a8o().to_str().unwrap(), "--method", "sphere", "--size", "8x8", "-o", dir.join("m.png").to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && stderr.contains(note), "{stderr}");
+    let out = run(&["render", pdb_1a8o().to_str().unwrap(), "--size", "8x8", "-o", dir.join("q.png").to_str().unwrap()]);
+    assert!(out.status.success() && !String::from_utf8_lossy(&out.stderr).contains(note));
+    let fig1 = repo_root().join("scenes/fig1.ron");
+    let out = run(&["render", fig1.to_str().unwrap(), "--method", "sphere", "--size", "8x8", "-o", dir.join("c.png").to_str().unwrap()]);
+    assert!(out.status.success() && !String::from_utf8_lossy(&out.stderr).contains(note));
+}

@@ -112,10 +112,45 @@ fn the_binary_fails_cleanly_and_writes_nothing() {
     }
     let missing = Command::new(bin()).args(["render", "/nonexistent.ron", "-o"]).arg(dir.join("x.png")).output().unwrap();
     assert_eq!(missing.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&missing.stderr);
+    assert!(stderr.starts_with("error: /nonexistent.ron: cannot read: ") && !stderr.contains("(file)"), "{stderr}");
     assert!(!dir.join("x.png").exists());
     let leftovers: Vec<_> =
         std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.path().extension().is_some_and(|x| x != "ron")).collect();
     assert!(leftovers.is_empty(), "left files behind: {leftovers:?}");
+}
+
+/// Type errors name the format's own words (`Camera`, `Kernel`), never
+/// the reader's types (`CameraFile`, `KernelFile`), through the binary.
+#[test]
+fn type_errors_name_the_formats_words_not_the_readers_types() {
+    let dir = scratch("type-errors");
+    let cases = [
+        ("camera", GOOD.replace("camera: (eye: (0.0, 0.0, 8.0), target: (0.0, 0.0, 0.0), resolution: (16, 16))", "camera: 5"), "Camera"),
+        ("kernel", GOOD.replace("kernel: Compact(radius: 2.0)", "kernel: Blob(radius: 2.0)"), "Kernel"),
+        ("primitive", GOOD.replace("Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))", "Dot(center: (0.0, 0.0, 0.0))"), "Primitive"),
+        ("marching", GOOD.replace("iso: 0.5,", "iso: 0.5, marching: 5,"), "Marching"),
+    ];
+    for (name, text, word) in cases {
+        let scene = dir.join(format!("{name}.ron"));
+        std::fs::write(&scene, text).unwrap();
+        let run = Command::new(bin()).arg("render").arg(&scene).arg("-o").arg(dir.join("x.png")).output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{name}: {stderr}");
+        assert!(stderr.contains(&format!("`{word}`")) || stderr.contains(&format!("'{word}'")), "{name}: does not name {word}: {stderr}");
+        assert!(!stderr.contains("File`") && !stderr.contains("File'"), "{name}: names a reader type: {stderr}");
+    }
+}
+
+/// `tradeoff` sweeps a scene file; given a molecule it says so and how to
+/// make one, rather than what RON's parser found in a PDB.
+#[test]
+fn tradeoff_given_a_molecule_says_it_takes_scene_files() {
+    let out = Command::new(bin()).args(["tradeoff", "tests/data/molecules/1A8O.pdb", "--quick"]).current_dir(repo_root()).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("tradeoff takes a scene file (.ron)") && stderr.contains("isomarch scene tests/data/molecules/1A8O.pdb -o"), "{stderr}");
+    assert!(!stderr.contains("Expected struct"), "{stderr}");
 }
 
 /// The command line's own error paths: a window without a display is one
@@ -136,6 +171,8 @@ fn the_command_line_refuses_what_it_cannot_do_and_makes_what_it_can() {
     let stderr = String::from_utf8_lossy(&view.stderr);
     assert_eq!(view.status.code(), Some(1), "view without a display: {stderr}");
     assert!(stderr.trim().lines().count() == 1 && stderr.contains("no display") && stderr.contains("Xvfb"), "view without a display: {stderr}");
+    // winit's own source location is not the user's business.
+    assert!(!stderr.contains(".cargo") && !stderr.contains(".rs:"), "view without a display names a source file: {stderr}");
     let zero = Command::new(bin()).arg("render").arg(&scene).arg("-o").arg(dir.join("zero.png")).args(["--size", "0x0"]).output().unwrap();
     let stderr = String::from_utf8_lossy(&zero.stderr);
     assert_eq!(zero.status.code(), Some(2), "--size 0x0: {stderr}");

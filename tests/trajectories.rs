@@ -290,5 +290,52 @@ fn shards_split_a_trajectorys_frames_and_resume() {
     std::fs::remove_file(dir.join("f_13.png")).unwrap();
     let out = run(&["render", &top, &traj, "--frames", "10..16", "--skip-existing", "-o", pattern.to_str().unwrap(), "--size", "16x16"]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success() && err.contains("1 frames rendered, 5 kept from disk"), "{err}");
+    assert!(out.status.success() && err.contains("1 frame rendered, 5 kept from disk"), "{err}");
+}
+
+/// `isomarch frames ... | head` ends quietly when the pipe closes, as
+/// command-line tools do, rather than with "Broken pipe".
+#[test]
+fn frames_into_a_closed_pipe_ends_quietly() {
+    use std::io::{BufRead, BufReader};
+    // Rows of a few thousand coordinates: far more than a pipe buffers.
+    let atoms: Vec<String> = (0..3000).map(|i| i.to_string()).collect();
+    let mut child = Command::new(bin())
+        .args(["frames", &data("adk.psf"), &data("adk_dims.dcd"), "--atoms", &atoms.join(",")])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    for _ in 0..4 {
+        lines.next().unwrap().unwrap();
+    }
+    // `head -4` exits here: the read end closes.
+    drop(lines);
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("Broken pipe") && !stderr.contains("error") && !stderr.contains("panicked"), "{stderr}");
+}
+
+/// Frame times print as the CSV rounds them: DCD's f32 times read as
+/// written (`t = 41 ps`, not `40.99999638872076`), and a batch past the
+/// trajectory's end names the first frame that is missing.
+#[test]
+fn times_are_rounded_and_a_range_past_the_end_names_its_first_missing_frame() {
+    let dir = scratch("trajectory-messages");
+    let ron = dir.join("f40.ron");
+    let out = run(&["scene", &data("adk.psf"), &data("adk_dims.dcd"), "--frame", "40", "-o", ron.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&ron).unwrap();
+    assert!(text.contains("t = 41 ps"), "{}", text.lines().take(3).collect::<Vec<_>>().join("\n"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("the first at 1 ps"), "{stderr}");
+    let out = run(&["render", &data("adk.psf"), &data("adk_dims.dcd"), "--frames", "90..120", "-o", dir.join("f_###.png").to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("--frames 90..120") && stderr.contains("no frame 98: the trajectory has 98 (0 to 97)"), "{stderr}");
+    assert!(!stderr.contains("no frame 119"), "{stderr}");
+    let written: Vec<_> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).filter(|n| n.to_string_lossy().ends_with(".png")).collect();
+    assert!(written.is_empty(), "frames written: {written:?}");
 }

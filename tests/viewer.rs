@@ -88,12 +88,23 @@ fn colours(png: &Path, size: (u32, u32)) -> usize {
     seen.len()
 }
 
-fn assert_clean(out: &Output, frames: u64) {
+/// A clean exit after at least `frames` presented frames (a screenshot of
+/// a still view waits past `--exit-after` for the whole frame); returns
+/// the frames presented and how many of them were at full resolution.
+fn assert_clean(out: &Output, frames: u64) -> (u64, u64) {
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "view failed ({:?}):\n{stdout}\n{stderr}", out.status);
-    assert!(stdout.contains(&format!("presented {frames} frames")), "stdout: {stdout}\nstderr: {stderr}");
     assert!(!stderr.contains("validation"), "validation messages:\n{stderr}");
+    let line =
+        stdout.lines().find(|l| l.starts_with("presented ")).unwrap_or_else(|| panic!("no summary line in stdout: {stdout}\nstderr: {stderr}"));
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let presented: u64 = words[1].parse().unwrap_or_else(|_| panic!("{line}"));
+    let noun = if presented == 1 { "frame" } else { "frames" };
+    assert_eq!(words[2], noun, "{line}");
+    let full: u64 = words[3].trim_start_matches('(').parse().unwrap_or_else(|_| panic!("{line}"));
+    assert!(presented >= frames, "presented {presented} frames, fewer than {frames}: {line}");
+    (presented, full)
 }
 
 #[test]
@@ -105,6 +116,36 @@ fn the_viewer_presents_frames_and_exits_cleanly() {
     assert_clean(&out, 6);
     // The surface, not a blank window: many shades.
     assert!(colours(&shot, (96, 80)) > 50, "the presented image is nearly uniform");
+}
+
+#[test]
+fn a_screenshot_of_a_still_view_waits_for_the_full_frame() {
+    // One presented frame is a preview at 96x80 (the first frame marches
+    // 4,096 rays at most): the screenshot must still be the whole frame,
+    // the image `render` makes.
+    let x = Xvfb::start();
+    let dir = scratch("viewer-full-shot");
+    let shot = dir.join("shot.png");
+    let out = view(&x, &["scenes/fig10.ron", "--size", "96x80", "--exit-after", "1", "--screenshot", shot.to_str().unwrap()]);
+    let (_, full) = assert_clean(&out, 1);
+    assert!(full >= 1, "no frame at full resolution was presented");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains(&format!("saved {}", shot.display())) && !stderr.contains("preview"), "{stderr}");
+    let png = dir.join("render.png");
+    let rendered = Command::new(bin())
+        .args(["render", "scenes/fig10.ron", "--size", "96x80", "-o", png.to_str().unwrap()])
+        .current_dir(repo_root())
+        .output()
+        .unwrap();
+    assert!(rendered.status.success(), "{}", String::from_utf8_lossy(&rendered.stderr));
+    let (shown, want) = (image::open(&shot).unwrap().to_rgb8(), image::open(&png).unwrap().to_rgb8());
+    assert!(shown == want, "the screenshot is not the frame render makes");
+    // A playing animation shows previews: its screenshot says it is one.
+    let moving = dir.join("moving.png");
+    let out = view(&x, &["scenes/fig16.ron", "--size", "96x80", "--exit-after", "1", "--screenshot", moving.to_str().unwrap()]);
+    assert_clean(&out, 1);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("a preview (1/"), "{stderr}");
 }
 
 #[test]
@@ -504,7 +545,7 @@ fn a_trajectory_plays_through_with_memory_that_does_not_grow() {
         let n = loops.to_string();
         // With hydrogens: 43,432 atoms a frame, so that a frame kept is seen.
         let out = view(&x, &[top, traj, "--hydrogens", "--every-frame", "--loops", &n, "--size", "96x96", "--screenshot", shot.to_str().unwrap()]);
-        assert_clean(&out, 5 * loops);
+        assert_eq!(assert_clean(&out, 5 * loops).0, 5 * loops, "one presented frame per trajectory frame");
         let (shown, peak, end) = playback(&out);
         assert_eq!(shown, 5 * loops, "every frame of the 5, {loops} time(s)");
         assert!(colours(&shot, (96, 96)) > 20, "the last frame shown is nearly uniform");

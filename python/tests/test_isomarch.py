@@ -71,17 +71,28 @@ def read_pdb_atoms(path):
     positions, elements = [], []
     for line in Path(path).read_text().splitlines():
         if line.startswith(("ATOM  ", "HETATM")):
-            element = line[76:78].strip().capitalize()
+            # As the file writes it (upper case, `SE`): the package takes
+            # symbols in any case, as the readers do.
+            element = line[76:78].strip()
             assert line[16] == " ", "the test file has no alternate locations"
-            if element in ("H", "D"):
+            if element.upper() in ("H", "D"):
                 continue
             positions.append([float(line[30:38]), float(line[38:46]), float(line[46:54])])
             elements.append(element)
     return np.array(positions), elements
 
 
+def test_element_symbols_are_taken_in_any_case():
+    for upper, table in [("SE", "Se"), ("ZN", "Zn"), ("FE", "Fe"), ("CL", "Cl"), ("se", "Se")]:
+        assert isomarch.element_color(upper) == isomarch.element_color(table), upper
+        assert isomarch.element_radius(upper) == isomarch.element_radius(table), upper
+    assert isomarch.element_radius("SE") == 1.9
+    assert isomarch.element_color("ZN") != isomarch.element_color("Xx"), "zinc has Jmol's colour, not the fallback"
+
+
 def test_from_atoms_with_a_pdbs_coordinates_is_from_molecule_on_that_pdb(renderer):
     positions, elements = read_pdb_atoms(PDB)
+    assert "SE" in elements, "1A8O's selenomethionines, as the file writes them"
     radii = [isomarch.element_radius(e) for e in elements]
     assert all(r is not None for r in radii)
     colors = [isomarch.element_color(e) for e in elements]

@@ -161,10 +161,17 @@ pub fn is_element(symbol: &str) -> bool {
     BONDI.iter().any(|(s, _)| *s == symbol) || JMOL.iter().any(|(s, _)| *s == symbol)
 }
 
-/// Bondi's radius of `symbol` (periodic-table case), if the table has it.
-/// Deuterium (`D`) is drawn as hydrogen.
+/// `symbol` as the tables write it: periodic-table case (`SE`, `se` and
+/// `Se` are selenium, as the readers take them), deuterium as hydrogen.
+fn table_symbol(symbol: &str) -> String {
+    let symbol = super::element_case(symbol);
+    if symbol == "D" { "H".to_string() } else { symbol }
+}
+
+/// Bondi's radius of `symbol` (any case: `SE` is selenium), if the table
+/// has it. Deuterium (`D`) is drawn as hydrogen.
 pub fn radius(symbol: &str) -> Option<f64> {
-    let symbol = if symbol == "D" { "H" } else { symbol };
+    let symbol = table_symbol(symbol);
     BONDI.iter().find(|(s, _)| *s == symbol).map(|(_, r)| *r)
 }
 
@@ -174,9 +181,9 @@ pub fn linear(c: u8) -> f64 {
     if v <= 0.04045 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
 }
 
-/// The element's colour, linear RGB.
+/// The element's colour (any case, as [`radius`]), linear RGB.
 pub fn color(symbol: &str) -> [f64; 3] {
-    let symbol = if symbol == "D" { "H" } else { symbol };
+    let symbol = table_symbol(symbol);
     let c = JMOL.iter().find(|(s, _)| *s == symbol).map_or(UNKNOWN_COLOR, |(_, c)| *c);
     c.map(linear)
 }
@@ -192,6 +199,12 @@ mod tests {
         assert_eq!(radius("O"), Some(1.52));
         assert_eq!(radius("S"), Some(1.80));
         assert_eq!(radius("Se"), Some(1.90));
+        // Any case, as the readers take a PDB's element column.
+        assert_eq!(radius("SE"), Some(1.90));
+        assert_eq!(radius(" cl "), radius("Cl"));
+        assert_eq!(color("ZN"), color("Zn"));
+        assert_eq!(color("FE"), color("Fe"));
+        assert_ne!(color("FE"), color("Xx"));
         assert_eq!(radius("Fe"), None);
         assert!(is_element("Fe") && is_element("Zn") && !is_element("Xx"));
         assert!((color("O")[0] - 1.0).abs() < 1e-12);

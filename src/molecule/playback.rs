@@ -115,7 +115,7 @@ impl Stager {
         self.check_frame(k)?;
         let frame = self.trajectory.frames.read(k)?;
         let m = self.trajectory.molecule_at(&frame)?;
-        let time = frame.time_ps.map_or(String::new(), |t| format!(", t = {t} ps"));
+        let time = frame.time_ps.map_or(String::new(), |t| format!(", t = {} ps", super::trajectory::ps(t)));
         let note = format!("Frame {k} of {} ({} frames{time}), camera on {}.", self.trajectory.source, self.len(), describe(&self.framing));
         let (text, notes) = staged_text(&m, &self.options, Some(self.framing), &note)?;
         Ok((text, frame.time_ps, notes))

@@ -30,6 +30,21 @@ pub struct Frame {
     pub positions: Vec<DVec3>,
 }
 
+/// A simulation time in picoseconds as messages print it: to six
+/// significant digits, the precision of the f32 times and time steps that
+/// XTC and DCD store, without trailing zeros, so that times read as the
+/// simulation wrote them (`1` and `41`, not `0.9999999119200185` and
+/// `40.99999638872076`; `40.5`, not `40.500000`).
+pub fn ps(t: f64) -> String {
+    if t == 0.0 || !t.is_finite() {
+        return format!("{}", if t == 0.0 { 0.0 } else { t });
+    }
+    let decimals = (5 - t.abs().log10().floor() as i32).max(0) as usize;
+    let s = format!("{t:.decimals$}");
+    let s = if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.') } else { &s };
+    if s == "-0" { "0".to_string() } else { s.to_string() }
+}
+
 /// A source of frames.
 pub trait Frames: Send {
     /// The number of frames.
@@ -643,6 +658,18 @@ pub mod dcd {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn times_print_rounded_to_the_csvs_precision() {
+        assert_eq!(ps(0.9999999119200185), "1");
+        assert_eq!(ps(40.99999638872076), "41");
+        assert_eq!(ps(40.5), "40.5");
+        assert_eq!(ps(0.0), "0");
+        assert_eq!(ps(1234.5), "1234.5");
+        assert_eq!(ps(80000.0), "80000");
+        assert_eq!(ps(100.000008), "100");
+        assert_eq!(ps(0.002), "0.002");
+    }
 
     #[test]
     fn gromacs_titles_give_times() {

@@ -102,6 +102,9 @@ impl FileFormat {
     pub fn of(flag: &str, path: &Path, allowed: &[FileFormat]) -> Result<FileFormat> {
         let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
         if let Some(f) = allowed.iter().find(|f| ext.as_deref() == Some(f.extension())) {
+            if path.is_dir() {
+                bail!("{flag} {}: is a folder, not a file: give a file's name (a path inside it, or another)", path.display());
+            }
             return Ok(*f);
         }
         let names: Vec<String> = allowed.iter().map(|f| format!(".{}", f.extension())).collect();

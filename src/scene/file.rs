@@ -92,7 +92,7 @@ pub struct SceneFile {
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "Ao", deny_unknown_fields)]
 pub struct AoFile {
     /// Rays per hit, cosine-weighted over the hemisphere.
     #[serde(default = "default_ao_samples")]
@@ -106,7 +106,7 @@ fn default_ao_samples() -> u32 {
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "Transparency", deny_unknown_fields)]
 pub struct TransparencyFile {
     /// How much of the light each surface crossing reflects towards the
     /// viewer (its shaded colour), in [0, 1]; the rest passes on.
@@ -141,7 +141,7 @@ fn default_opacity() -> f64 {
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "Camera", deny_unknown_fields)]
 pub struct CameraFile {
     pub eye: [f64; 3],
     pub target: [f64; 3],
@@ -162,7 +162,7 @@ pub struct CameraFile {
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "Light", deny_unknown_fields)]
 pub struct LightFile {
     /// Direction towards the light (need not be unit).
     pub direction: [f64; 3],
@@ -173,7 +173,7 @@ pub struct LightFile {
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "Marching", deny_unknown_fields)]
 pub struct MarchingFile {
     /// The marcher when the command line does not choose one.
     #[serde(default = "default_method")]
@@ -220,20 +220,20 @@ impl Default for MarchingFile {
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "Bounds", deny_unknown_fields)]
 pub struct BoundsFile {
     pub min: [f64; 3],
     pub max: [f64; 3],
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "Group", deny_unknown_fields)]
 pub struct GroupFile {
     pub primitives: Vec<PrimitiveFile>,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "Primitive", deny_unknown_fields)]
 pub enum PrimitiveFile {
     /// A point primitive: the kernel of the distance to `center`, which
     /// may move over time.
@@ -283,7 +283,7 @@ fn default_polynomial() -> bool {
 
 /// A path of offsets added to a point's centre over scene time (seconds).
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "Motion", deny_unknown_fields)]
 pub enum MotionFile {
     /// `axis · amplitude · sin(2π t / period + phase)`.
     Sine {
@@ -299,7 +299,7 @@ pub enum MotionFile {
 
 /// A factor on a point's radius over scene time (seconds).
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "Scale", deny_unknown_fields)]
 pub enum ScaleFile {
     /// `1 + amplitude · sin(2π t / period + phase)`, amplitude in [0, 1).
     Sine {
@@ -314,7 +314,7 @@ pub enum ScaleFile {
 
 /// The camera eye's path over scene time (the target stays).
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "CameraPath", deny_unknown_fields)]
 pub enum CameraPathFile {
     /// One turn about the vertical axis through the target per `period` seconds.
     Orbit { period: f64 },
@@ -323,7 +323,7 @@ pub enum CameraPathFile {
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "Kernel", deny_unknown_fields)]
 pub enum KernelFile {
     /// `weight · (1 - d²/radius²)³` inside the support radius, 0 outside.
     Compact {

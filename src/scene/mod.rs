@@ -25,7 +25,7 @@ pub use crate::settings::GAUSSIAN_BOUNDS_FRACTION;
 
 /// A scene problem, one line: file, field, what is allowed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{file}: {field}: {message}")]
+#[error("{file}: {}{message}", if field.is_empty() { String::new() } else { format!("{field}: ") })]
 pub struct SceneError {
     pub file: String,
     pub field: String,
@@ -215,7 +215,7 @@ impl Scene {
         let name = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| SceneError {
             file: name.clone(),
-            field: "(file)".into(),
+            field: String::new(),
             message: format!("cannot read: {e}"),
         })?;
         Scene::parse(&text, &name)
