@@ -33,6 +33,7 @@ layout(push_constant) uniform IndexPush {
     uint count;    // invocations wanted
     uint pass;
     uint unused;
+    uint unused_too;   // the march's first_tile (one push range for both)
 } push;
 
 // (SCAN_BLOCK comes from src/layout.rs.)

@@ -21,6 +21,9 @@ void main() {
     vec3 u = ray.d.xyz;
 
     g_ray = i;
+    g_origin = o;
+    g_dir = u;
+    g_tile = push.first_tile + gl_WorkGroupID.x;
     March m;
     uint turns = 0u;   // loop turns of the march so far
     if (push.first_slice != 0u) {
@@ -31,6 +34,7 @@ void main() {
                   s.trans.rgb, s.trans.w, s.refine.x, s.refine.y, s.refine.z, s.refine.w, s.n.w >> 24u, (s.n.w >> 16u) & 0xFFu, uintBitsToFloat(s.tally.z));
         g_evals = s.n.y;
         g_visits = s.tally.x;
+        g_cursor = s.tally.w;
         turns = s.tally.y;
     }
     // What remains of the ray: bisection revisits it all, Algorithm 1 only
@@ -61,7 +65,7 @@ void main() {
     } else {
         states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, m.first), uvec4(m.steps, g_evals, m.refine_evals, packed),
                                   uvec4(m.depth, m.index, m.crossings, m.base_depth), vec4(m.color, m.last), vec4(m.transmittance, m.f_prev),
-                                  vec4(m.ra, m.rb, m.ga, m.gb), uvec4(g_visits, turns, floatBitsToUint(m.far), 0u));
+                                  vec4(m.ra, m.rb, m.ga, m.gb), uvec4(g_visits, turns, floatBitsToUint(m.far), g_cursor));
         atomicAdd(active_rays, 1u);
         return;
     }

@@ -769,7 +769,9 @@ pub fn markdown(report: &BenchReport) -> String {
 pub fn index_line(i: &IndexStats) -> String {
     let build = if i.build_ns.is_finite() { format!("{:.3} ms", i.build_ns * 1e-6) } else { "n/a (no GPU timestamps)".into() };
     format!(
-        "Spatial index: {} cells of size {:.3}, {} entries (longest list {}), {:.1} bytes per primitive; GPU build {build} per frame",
+        "Spatial index: {} cells of size {:.3}, {} entries (longest list {}), {:.1} bytes per primitive; GPU build {build} per frame. \
+         Every ray here walks it: rays sampled from a frame are not whole 8x8 tiles, so the camera's tile lists that `render` uses for \
+         molecules and particles (its --stats say which) do not apply",
         i.cells, i.cell_size, i.entries, i.longest_list, i.bytes_per_primitive
     )
 }

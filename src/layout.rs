@@ -104,7 +104,8 @@ gpu_structs! {
     /// its last turn moved are in bits 16-23 and 24-25 of `n.w`.
     /// `tally`: list positions visited and loop turns so far (see
     /// `GpuResult::crossings`), z where f >= 0 is known (`SC_BRACKET`; float
-    /// bits), w reserved.
+    /// bits), w the first entry of its tile list still worth reading
+    /// (`SC_TILES`, `g_cursor`).
     struct GpuMarchState { v: Vec4, n: UVec4, node: UVec4, light: Vec4, trans: Vec4, refine: Vec4, tally: UVec4 }
 
     /// Scene-wide constants. `march`: x iso, y minimum step, z refinement
@@ -230,11 +231,15 @@ const VARIANT_CONSTANT: &str = "SC_INDEX";
 /// only): as a constant its code made the indexed kernel's SPIR-V overflow
 /// the 4M ids spirv-opt allows while it optimises.
 const BRACKET_CONSTANT: &str = "SC_BRACKET";
+/// `SC_TILES`, camera rays' candidates from the screen-space lists
+/// (src/render/tiles.rs) instead of the grid walk, is the bracket's kernel
+/// with that walk replaced (`march_tiles.spv`, `ISOMARCH_TILES`).
+const TILES_CONSTANT: &str = "SC_TILES";
 
 /// The build variants of shader `stem`: (macro, value, file suffix).
 pub fn shader_variants(stem: &str) -> Vec<(&'static str, &'static str, &'static str)> {
     match stem {
-        "march" => vec![("ISOMARCH_INDEXED", "1u", "_indexed"), ("ISOMARCH_BRACKET", "1u", "_bracket")],
+        "march" => vec![("ISOMARCH_INDEXED", "1u", "_indexed"), ("ISOMARCH_BRACKET", "1u", "_bracket"), ("ISOMARCH_TILES", "1u", "_tiles")],
         "bounds" => vec![("ISOMARCH_INDEXED", "1u", "_indexed")],
         _ => Vec::new(),
     }
@@ -253,9 +258,16 @@ pub const CELL_PAD: f32 = 1e-3;
 /// primitive (empty space is skipped, shaders/include/traverse.glsl).
 pub const SKIP_CELLS: u32 = 64;
 
+/// The walk of a tile list (src/render/tiles.rs) stops at an entry whose
+/// support starts beyond `t + TILE_PAD (1 + |t|)`, and leaves behind one
+/// the ray left before `t - TILE_PAD (1 + |t|)`: the rays' f32 parameters
+/// round at about 1e-7.
+pub const TILE_PAD: f32 = 1e-5;
+
 /// Float constants shared with GLSL, as `(name, value)`.
 pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] = &[
     ("CELL_PAD", CELL_PAD),
+    ("TILE_PAD", TILE_PAD),
     ("SECANT_STRADDLE", SECANT_STRADDLE),
     ("INVERSION_OVER_RELAXATION", INVERSION_OVER_RELAXATION),
     ("DYNAMOL_EPSILON", DYNAMOL_EPSILON),
@@ -354,9 +366,15 @@ pub enum Resource {
 
 /// The format of a buffer's texel view.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+// The names are Vulkan's formats (R32_UINT, R32G32_UINT, ...): their
+// common suffix is part of each name, not a prefix to strip.
+#[allow(clippy::enum_variant_names)]
 pub enum TexelFormat {
     /// One `u32` a texel (GLSL `r32ui`).
     R32Uint,
+    /// Two `u32` a texel (GLSL `rg32ui`): a tile list's entry, the
+    /// primitive and its depth (src/render/tiles.rs).
+    Rg32Uint,
     /// Four `u32` a texel (GLSL `rgba32ui`): a [`GpuPrimitive`] is four, read bit for bit (its floats through `uintBitsToFloat`).
     Rgba32Uint,
 }
@@ -366,6 +384,7 @@ impl TexelFormat {
     pub fn bytes(self) -> u64 {
         match self {
             TexelFormat::R32Uint => 4,
+            TexelFormat::Rg32Uint => 8,
             TexelFormat::Rgba32Uint => 16,
         }
     }
@@ -373,6 +392,7 @@ impl TexelFormat {
     fn glsl(self) -> &'static str {
         match self {
             TexelFormat::R32Uint => "r32ui",
+            TexelFormat::Rg32Uint => "rg32ui",
             TexelFormat::Rgba32Uint => "rgba32ui",
         }
     }
@@ -445,13 +465,13 @@ pub const BINDINGS: &[Binding] = &[
         index: 12,
         resource: Resource::Texels { sampler: "usamplerBuffer", name: "cell_texels", format: TexelFormat::R32Uint },
         probe: None,
-        doc: &["The marching kernels' view of binding 8."],
+        doc: &["The marching kernels' view of binding 8; march_tiles binds the camera's tile lists' starts here."],
     },
     Binding {
         index: 13,
         resource: Resource::Texels { sampler: "usamplerBuffer", name: "entry_texels", format: TexelFormat::R32Uint },
         probe: None,
-        doc: &["The marching kernels' view of binding 9."],
+        doc: &["The marching kernels' view of binding 9; march_tiles binds the tile lists' entries here."],
     },
 ];
 
@@ -522,9 +542,10 @@ pub fn glsl() -> String {
     }
     // The build variants (shader_variants), or, without one, neither.
     s.push_str(&format!(
-        "#if defined(ISOMARCH_BRACKET)\nconst uint {VARIANT_CONSTANT} = 1u;\nconst uint {BRACKET_CONSTANT} = 1u;\n\
-         #elif defined(ISOMARCH_INDEXED)\nconst uint {VARIANT_CONSTANT} = ISOMARCH_INDEXED;\nconst uint {BRACKET_CONSTANT} = 0u;\n\
-         #else\nconst uint {VARIANT_CONSTANT} = 0u;\nconst uint {BRACKET_CONSTANT} = 0u;\n#endif\n"
+        "#if defined(ISOMARCH_TILES)\nconst uint {VARIANT_CONSTANT} = 1u;\nconst uint {BRACKET_CONSTANT} = 1u;\nconst uint {TILES_CONSTANT} = 1u;\n\
+         #elif defined(ISOMARCH_BRACKET)\nconst uint {VARIANT_CONSTANT} = 1u;\nconst uint {BRACKET_CONSTANT} = 1u;\nconst uint {TILES_CONSTANT} = 0u;\n\
+         #elif defined(ISOMARCH_INDEXED)\nconst uint {VARIANT_CONSTANT} = ISOMARCH_INDEXED;\nconst uint {BRACKET_CONSTANT} = 0u;\nconst uint {TILES_CONSTANT} = 0u;\n\
+         #else\nconst uint {VARIANT_CONSTANT} = 0u;\nconst uint {BRACKET_CONSTANT} = 0u;\nconst uint {TILES_CONSTANT} = 0u;\n#endif\n"
     ));
     s.push_str(&glsl_structs());
     s.push_str("#endif\n");

@@ -30,7 +30,7 @@ use crate::method::Method;
 use crate::molecule::playback::{Order, Prefetch, Stager};
 use crate::output::{self, LEGEND_HEIGHT};
 use crate::render::offscreen::SAMPLE_SEED;
-use crate::render::offscreen::{march_frame, pixel_stats};
+use crate::render::offscreen::{march_camera_frame, pixel_stats};
 use crate::render::rays::{PIXEL_TILE, camera_rays, camera_rays_through, subpixel};
 use crate::render::{MarchOptions, Renderer};
 use crate::scene::Scene;
@@ -236,6 +236,8 @@ struct Progressive {
     /// marches (`None`: the pixels' centres).
     sample: Option<u32>,
     scene: Scene,
+    /// The frame's size: the rays are its camera rays, in tile order.
+    size: (u32, u32),
     rays: Vec<GpuRay>,
     pixels: Vec<Option<u32>>,
     next: usize,
@@ -507,7 +509,7 @@ impl App {
         let size = window.inner_size();
         let window_handle = window.window_handle().map_err(|e| anyhow!("the window's handle: {e}"))?.as_raw();
         let presenter = Presenter::new(&ctx, display, window_handle, (size.width.max(1), size.height.max(1)), self.options.timeout)?;
-        let mut renderer = Renderer::new(&ctx, &self.posed(presenter.extent()))?;
+        let mut renderer = Renderer::for_camera(&ctx, &self.posed(presenter.extent()))?;
         renderer.timeout = self.options.timeout;
         self.ctx = Some(ctx);
         self.gpu = Some(Gpu { presenter, renderer, window });
@@ -642,13 +644,18 @@ impl App {
         Ok(())
     }
 
-    /// Marches `rays` of `scene`, updating the measured wall cost per ray.
-    fn march(&mut self, scene: &Scene, rays: &[GpuRay]) -> Result<crate::render::MarchOutput> {
+    /// Marches `rays` of `scene`, the camera rays of its `size` frame from
+    /// ray `first` on (whole tiles), updating the measured wall cost per
+    /// ray. Camera rays take their candidates as `render`'s do (the tile
+    /// lists where they apply).
+    fn march(&mut self, scene: &Scene, size: (u32, u32), rays: &[GpuRay], first: usize) -> Result<crate::render::MarchOutput> {
         let gpu = self.gpu.as_mut().ok_or_else(|| anyhow!("no window"))?;
         gpu.renderer.set_scene(scene)?;
         let t = Instant::now();
         // Transparent as shown: T takes the posed scene's transparency away.
-        let out = march_frame(&mut gpu.renderer, self.input.method, MarchOptions::for_scene(scene), rays)?;
+        let options = MarchOptions::for_scene(scene);
+        gpu.renderer.prepare_camera(self.input.method, &options, &scene.camera, size.0, size.1)?;
+        let out = march_camera_frame(&mut gpu.renderer, self.input.method, options, rays, first)?;
         self.schedule.measured(t.elapsed(), rays.len());
         if let Some(p) = &mut self.player {
             p.stats.march_ms += t.elapsed().as_secs_f64() * 1e3;
@@ -667,7 +674,7 @@ impl App {
         let scene = self.posed(small);
         let (rays, pixels) = camera_rays(&scene.camera, small.0, small.1, &scene.bounds);
         let started = Instant::now();
-        let out = self.march(&scene, &rays)?;
+        let out = self.march(&scene, small, &rays, 0)?;
         let frame = output::Frame::from_results(small.0, small.1, &out.results, &pixels);
         let schedule = &mut self.schedule;
         schedule.frame_ms = started.elapsed().as_secs_f64() * 1e3;
@@ -706,7 +713,7 @@ impl App {
             self.schedule.linear = vec![[0.0; 3]; (size.0 * size.1) as usize];
         }
         self.schedule.next_sample = sample.map_or(self.schedule.next_sample, |s| s + 1);
-        self.schedule.progressive = Some(Progressive { sample, scene, rays, pixels, next: 0, steps: 0, rays_done: 0, started: Instant::now() });
+        self.schedule.progressive = Some(Progressive { sample, scene, size, rays, pixels, next: 0, steps: 0, rays_done: 0, started: Instant::now() });
         self.progressive_step()
     }
 
@@ -717,7 +724,7 @@ impl App {
         let tile = (PIXEL_TILE * PIXEL_TILE) as usize;
         let count = (self.schedule.affordable_rays(self.options.preview) as usize / tile).max(1) * tile;
         let end = (job.next + count).min(job.rays.len());
-        let results = self.march(&job.scene, &job.rays[job.next..end])?.results;
+        let results = self.march(&job.scene, job.size, &job.rays[job.next..end], job.next)?.results;
         let schedule = &mut self.schedule;
         for (r, p) in results.iter().zip(&job.pixels[job.next..end]) {
             let Some(p) = *p else { continue };

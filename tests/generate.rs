@@ -151,8 +151,25 @@ fn render_and_bench_report_the_spatial_index() {
     let scene = dir.join("p1000.ron");
     assert_ok(&generate(&["--count", "1000", "--seed", "2"], &scene));
     let (s, stats) = (scene.to_str().unwrap(), dir.join("p1000.json"));
+    // A frame of camera rays alone takes the camera's tile lists and
+    // builds no index; with the lists off (ISOMARCH_TILES=off), the grid.
     run_ok(&["render", s, "--size", "48x48", "-o", dir.join("p.png").to_str().unwrap(), "--stats", stats.to_str().unwrap()]);
-    assert_sane_index(&json(&stats)["index"], 1000);
+    let v = json(&stats);
+    assert_eq!(v["acceleration"], "tiles", "{v}");
+    assert!(v["index"].is_null(), "an index was built for camera rays alone: {v}");
+    let tiles = &v["tiles"];
+    let num = |k: &str| tiles[k].as_f64().unwrap_or_else(|| panic!("tiles.{k} missing or not a number: {tiles}"));
+    assert!(num("entries") >= 100.0 && num("longest_list") >= 1.0 && num("tiles") == 36.0 && num("bytes") > 0.0, "{tiles}");
+    let grid = Command::new(bin())
+        .args(["render", s, "--size", "48x48", "-o", dir.join("p.png").to_str().unwrap(), "--stats", stats.to_str().unwrap()])
+        .env("ISOMARCH_TILES", "off")
+        .output()
+        .unwrap();
+    assert!(grid.status.success(), "{}", String::from_utf8_lossy(&grid.stderr));
+    let v = json(&stats);
+    assert_eq!(v["acceleration"], "grid", "{v}");
+    assert!(v["tiles"].is_null(), "{v}");
+    assert_sane_index(&v["index"], 1000);
 
     let bench = dir.join("bench.json");
     let out = run_ok(&["bench", s, "--methods", "quadratic-taylor", "--rays", "256", "--json", bench.to_str().unwrap()]);
@@ -186,18 +203,24 @@ fn batch_frames_log_each_index_build() {
     assert_ok(&generate(&["--count", "150", "--seed", "4", "--motion"], &moving));
     let csv = dir.join("moving.csv");
     let pattern = dir.join("m_####.png");
-    run_ok(&[
-        "render",
-        moving.to_str().unwrap(),
-        "--size",
-        "24x24",
-        "--frames",
-        "0..3",
-        "-o",
-        pattern.to_str().unwrap(),
-        "--csv",
-        csv.to_str().unwrap(),
-    ]);
+    // The grid (the camera's tile lists build no index).
+    let batch = Command::new(bin())
+        .args([
+            "render",
+            moving.to_str().unwrap(),
+            "--size",
+            "24x24",
+            "--frames",
+            "0..3",
+            "-o",
+            pattern.to_str().unwrap(),
+            "--csv",
+            csv.to_str().unwrap(),
+        ])
+        .env("ISOMARCH_TILES", "off")
+        .output()
+        .unwrap();
+    assert!(batch.status.success(), "{}", String::from_utf8_lossy(&batch.stderr));
     let builds = index_column(&csv);
     assert_eq!(builds.len(), 3);
     for b in &builds {
@@ -210,7 +233,13 @@ fn batch_frames_log_each_index_build() {
     for n in [1usize, 2] {
         let single = dir.join(format!("single_{n}.png"));
         let time = format!("{}", n as f64 / 25.0);
-        run_ok(&["render", moving.to_str().unwrap(), "--size", "24x24", "--time", &time, "-o", single.to_str().unwrap()]);
+        // As the batch, through the grid.
+        let out = Command::new(bin())
+            .args(["render", moving.to_str().unwrap(), "--size", "24x24", "--time", &time, "-o", single.to_str().unwrap()])
+            .env("ISOMARCH_TILES", "off")
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         assert!(frame(n) == std::fs::read(&single).unwrap(), "batch frame {n} differs from render --time {time}");
     }
     // Without an index the column is empty.

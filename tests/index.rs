@@ -327,7 +327,8 @@ fn scenes_of_many_groups_march_flat() {
 /// 1000000`) need an index of 64 million entries (256 MB), more than
 /// lavapipe's 128 MiB storage-buffer range: its entries are a texel buffer
 /// (134,217,728 texels), so the scene renders, and its hits on a sample of
-/// protocol rays and of camera rays agree with the f64 reference.
+/// protocol rays and of camera rays agree with the f64 reference, and so do
+/// a 256x256 frame's camera rays through the camera's tile lists.
 #[test]
 fn a_million_blobs_index_outgrows_a_storage_buffer_and_matches_the_reference() {
     let ctx = gpu();
@@ -354,6 +355,23 @@ fn a_million_blobs_index_outgrows_a_storage_buffer_and_matches_the_reference() {
             assert!(acc.misses + acc.false_hits == 0, "{method} {what}: {} missed, {} false", acc.misses, acc.false_hits);
         }
     }
+    // A 256x256 frame through the camera's tile lists (issue 39), checked
+    // on every 61st ray against the reference.
+    let opaque = MarchOptions { shade: false, ..MarchOptions::for_scene(&s) };
+    assert!(renderer.prepare_camera(Method::QuadraticTaylor, &opaque, &s.camera, 256, 256).unwrap(), "the lists do not fit");
+    let tiles = renderer.tile_stats().unwrap();
+    assert!(tiles.entries >= 1_000_000 && tiles.tiles == 1024, "{tiles:?}");
+    let (frame, _) = isomarch::render::rays::camera_rays(&s.camera, 256, 256, &s.bounds);
+    let out = renderer.march_camera(Method::QuadraticTaylor, opaque, &frame, 0).unwrap();
+    let sample: Vec<usize> = (0..frame.len()).step_by(61).collect();
+    let rays: Vec<GpuRay> = sample.iter().map(|&i| frame[i]).collect();
+    let reference = reference_hits(&s, &rays, false);
+    let hits = reference.iter().filter(|h| h.is_some()).count();
+    assert!(4 * hits >= rays.len(), "only {hits} of {} sampled rays hit", rays.len());
+    let results: Vec<GpuResult> = sample.iter().map(|&i| out.results[i]).collect();
+    let tol = tolerance(&s);
+    let acc = accuracy(&results, &reference, tol, tol);
+    assert!(acc.misses + acc.false_hits == 0, "through the tile lists: {} missed, {} false", acc.misses, acc.false_hits);
     assert_no_validation(&ctx);
 }
 
@@ -505,5 +523,60 @@ fn a_molecules_any_hit_queries_end_where_a_ray_enters_an_atoms_reach() {
         assert!(20 * steps(&a) < 19 * steps(&b), "{method}: {} steps with the bracket, {} without", steps(&a), steps(&b));
     }
     assert_first_hits(&mut renderer, &s, &camera, &[Method::QuadraticTaylor, Method::Segment, Method::Quadratic], "1A8O camera rays");
+    assert_no_validation(&ctx);
+}
+
+/// Camera rays through the camera's screen-space tile lists
+/// (src/render/tiles.rs) find the f64 reference's first hits, for every
+/// conservative method they serve (all but the bisection baselines), on
+/// particles in one group and in three, and on a molecule; the lists'
+/// hits and depths are the grid's within the tolerance.
+#[test]
+fn camera_rays_through_tile_lists_find_the_references_hits() {
+    let molecule = isomarch::molecule::build::load_scene(&repo_root().join("tests/data/molecules/1A8O.pdb"), &Default::default()).unwrap().0;
+    let ctx = gpu();
+    for (what, s, (w, h)) in [
+        ("1,000 particles", particles(1000, 1, 5), (64, 64)),
+        ("900 particles in 3 groups", particles(900, 3, 6), (40, 40)),
+        ("1A8O", molecule, (64, 64)),
+    ] {
+        let s = s.recentred_on_camera();
+        let tol = tolerance(&s);
+        let mut renderer = Renderer::new(&ctx, &s).unwrap();
+        let (rays, pixels) = isomarch::render::rays::camera_rays(&s.camera, w, h, &s.bounds);
+        let reference = reference_hits(&s, &rays, false);
+        let hits = reference.iter().filter(|h| h.is_some()).count();
+        assert!(5 * hits >= pixels.len(), "{what}: only {hits} hits");
+        let opaque = MarchOptions { shade: false, ..MarchOptions::for_scene(&s) };
+        let served: Vec<Method> = Method::CONSERVATIVE.iter().copied().filter(|&m| renderer.tiles_apply(m, &opaque)).collect();
+        assert!(served.len() >= 6 && served.iter().all(|m| !m.bisects()), "{what}: the lists serve {served:?}");
+        for &method in &served {
+            assert!(renderer.prepare_camera(method, &opaque, &s.camera, w, h).unwrap(), "{what} {method}: the lists do not fit");
+            let tiled = renderer.march_camera(method, opaque, &rays, 0).unwrap().results;
+            let grid = renderer.march(method, opaque, &rays, |_| {}).unwrap().results;
+            assert_finite(&tiled, &format!("{what} {method}"));
+            let finished: Vec<usize> = (0..rays.len()).filter(|&i| tiled[i].counts[3] & FLAG_OUT_OF_STEPS == 0).collect();
+            if method != Method::Sphere {
+                assert_eq!(finished.len(), rays.len(), "{what} {method}: rays ran out of steps");
+            }
+            let results: Vec<GpuResult> = finished.iter().map(|&i| tiled[i]).collect();
+            let expected: Vec<Option<f64>> = finished.iter().map(|&i| reference[i]).collect();
+            let acc = accuracy(&results, &expected, tol, tol);
+            assert!(acc.misses + acc.false_hits == 0, "{what} {method}: {} missed, {} false through the tile lists", acc.misses, acc.false_hits);
+            let hit = |r: &GpuResult| r.counts[3] & isomarch::layout::FLAG_HIT != 0;
+            for &i in &finished {
+                if grid[i].counts[3] & FLAG_OUT_OF_STEPS != 0 {
+                    continue;
+                }
+                assert_eq!(hit(&tiled[i]), hit(&grid[i]), "{what} {method}: ray {i} hits through one walk only");
+                if hit(&tiled[i]) {
+                    let (a, b) = (tiled[i].hit[3], grid[i].hit[3]);
+                    assert!(f64::from((a - b).abs()) <= 2.0 * tol, "{what} {method}: ray {i} at {a} through the lists, {b} through the grid");
+                }
+            }
+        }
+        let stats = renderer.tile_stats().unwrap();
+        assert!(stats.entries >= s.primitive_count() / 4 && stats.longest_list > 0, "{what}: {stats:?}");
+    }
     assert_no_validation(&ctx);
 }

@@ -12,6 +12,7 @@ layout(push_constant) uniform Push {
     uint ray_count;
     uint first_slice;   // 1: start the rays; 0: resume them from `states`
     uint slice_steps;   // marching steps per ray in this dispatch
+    uint first_tile;    // SC_TILES: the screen tile of the first workgroup
 } push;
 
 #endif

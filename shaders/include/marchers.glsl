@@ -377,11 +377,12 @@ void algorithm1_turn(vec3 o, vec3 u, float tmax, inout March m) {
             m.flags |= FLAG_HIT;
         }
         return;
-    } else if (SC_INDEX != 0u && globals.tuning.w != 0.0) {
+    } else if (SC_INDEX != 0u && globals.tuning.w != 0.0 && (SC_TILES == 0u || m.steps == 0u || m.f_prev == -globals.march.x)) {
         // Across empty cells in one move (f = -iso there): no step, no
         // evaluation; the march goes on from the first cell that lists a
-        // primitive, or ends at tmax.
-        float t = skip_empty_cells(o, u, t0, tmax);
+        // primitive, or ends at tmax. With the tile lists, from the start
+        // and after a step that met nothing, to the first support listed.
+        float t = SC_TILES != 0u ? skip_to_support(o, u, t0, tmax) : skip_empty_cells(o, u, t0, tmax);
         if (t > t0) {
             m.t = t;
             m.t_prev = t;

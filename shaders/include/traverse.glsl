@@ -243,6 +243,27 @@ float skip_empty_cells(vec3 o, vec3 u, float t0, float tmax) {
     return max(t0, c.ta);
 }
 
+// A point query at q.o and the support (centre and index radius) a: a
+// Gaussian is clipped at its radius, so that the field does not depend on
+// the list it is evaluated from; compact kernels test their support
+// themselves.
+bool point_admits(vec4 a, bool gaussian, Query q) {
+    vec3 d = q.o - a.xyz;
+    return !gaussian || dot(d, d) < a.w * a.w;
+}
+
+// Whether an interval query's segment meets the support a, and tn, the
+// segment's point nearest its centre.
+bool segment_meets(vec4 a, Query q, out float tn) {
+    vec3 co = a.xyz - q.o;
+    float tc = dot(co, q.u);
+    vec3 w = co - tc * q.u;
+    float h2 = dot(w, w);
+    tn = clamp(tc, q.t0, q.t1);
+    float d = tc - tn;
+    return h2 + d * d < a.w * a.w;
+}
+
 // Whether the walk hands grid primitive i, whose texel a holds its centre
 // and index radius (GpuPrimitive::a.w for points), to the evaluations in
 // the DDA's cell c. A point query: a Gaussian is clipped at its radius for
@@ -255,19 +276,113 @@ float skip_empty_cells(vec3 o, vec3 u, float t0, float tmax) {
 // primitive; and it needs no square root, where the point where the query
 // enters the support did.
 bool grid_admits(Dda c, vec4 a, bool gaussian, Query q) {
-    if (q.point) {
-        vec3 d = q.o - a.xyz;
-        return !gaussian || dot(d, d) < a.w * a.w;
-    }
-    vec3 co = a.xyz - q.o;
-    float tc = dot(co, q.u);
-    vec3 w = co - tc * q.u;
-    float h2 = dot(w, w);
-    float tn = clamp(tc, q.t0, q.t1);
-    float d = tc - tn;
-    if (h2 + d * d >= a.w * a.w) return false;
+    if (q.point) return point_admits(a, gaussian, q);
+    float tn;
+    if (!segment_meets(a, q, tn)) return false;
     bool last = c.tb >= c.t_end;
     return (c.first_cell || tn >= c.ta) && (last || tn < c.tb);
+}
+
+// --- Screen-space lists (SC_TILES, src/render/tiles.rs): a camera ray's
+// workgroup is one 8x8 pixel tile, whose list per group holds every
+// support a ray of the tile may meet, nearest first (the distance from the
+// eye to the support's nearest point). A walk reads a list from the front
+// and stops at the first entry that starts beyond the query: no later one
+// reaches the query either.
+
+// The eye (every camera ray starts there), the ray's direction, and its
+// tile.
+vec3 g_origin = vec3(0.0);
+vec3 g_dir = vec3(0.0);
+uint g_tile = 0u;
+
+// Group g's list of the ray's tile (the lists are tile-major).
+uint tile_list(uint g) {
+    return g_tile * globals.sizes.y + g;
+}
+
+// With one group, the ray's first entry of its list still worth reading:
+// every entry before it the ray misses, or has passed before the point
+// where the march stands (its queries never go back before it; opaque
+// first crossings only). Kept across slices in the march state.
+uint g_cursor = 0u;
+
+// Where a walk of `list` starts.
+uint tile_begin(uint list) {
+    uint start = list_start(list);
+    return globals.sizes.y == 1u ? max(start, g_cursor) : start;
+}
+
+// Whether the ray o + t u misses support a, or leaves it before t0: then
+// no query of the rest of its march meets it (the miss with the sphere
+// test of segment_meets, to the bit).
+bool tile_behind(vec4 a, vec3 o, vec3 u, float t0) {
+    vec3 co = a.xyz - o;
+    float tc = dot(co, u);
+    vec3 w = co - tc * u;
+    float r2 = a.w * a.w - dot(w, w);
+    // The ray leaves the support at tc + sqrt(r2): before t0, padded.
+    float past = t0 - TILE_PAD * (1.0 + abs(t0)) - tc;
+    return r2 <= 0.0 || (past > 0.0 && r2 < past * past);
+}
+
+// A tile list's entry at `at`: the primitive, and the distance from the
+// eye to its support's nearest point (rounded down: no ray from the eye
+// meets the support before it).
+uvec2 tile_entry(uint at) {
+    return texelFetch(entry_texels, int(at)).xy;
+}
+
+// The horizon of a walk to t: an entry whose depth (rounded down from
+// the host's f64) is beyond it, and every later one, starts past t. Padded
+// for the f32 rounding of the ray's parameters.
+float tile_horizon(float t) {
+    return t + TILE_PAD * (1.0 + abs(t));
+}
+
+// Whether the walk of a tile list hands primitive a (centre and index
+// radius) to the evaluations of query q: every primitive whose support
+// meets the query, once (a list holds it once).
+bool tile_admits(vec4 a, bool gaussian, Query q) {
+    if (q.point) return point_admits(a, gaussian, q);
+    float tn;
+    return segment_meets(a, q, tn);
+}
+
+// The first point from t0 where the ray enters a support listed for its
+// tile (t0 itself when it is inside one; tmax when none is before tmax):
+// before it every group's sum is 0 and f = -iso (globals.tuning.w), as
+// skip_empty_cells finds with the grid. Entered a little early (TILE_PAD)
+// for the f32 rounding of the square root.
+float skip_to_support(vec3 o, vec3 u, float t0, float tmax) {
+    float best = tmax;
+    bool prefix = globals.sizes.y == 1u;
+    for (uint g = 0u; g < globals.sizes.y; ++g) {
+        uint list = tile_list(g);
+        uint end = list_start(list + 1u);
+        for (uint at = tile_begin(list); at < end; ++at) {
+            uvec2 e = tile_entry(at);
+            g_visits += 1u;
+            if (uintBitsToFloat(e.y) > tile_horizon(best)) break;
+            vec4 a = uintBitsToFloat(prim_texel(e.x, 0u));
+            if (prefix) {
+                if (tile_behind(a, o, u, t0)) {
+                    g_cursor = at + 1u;
+                    continue;
+                }
+                prefix = false;
+            }
+            vec3 co = a.xyz - o;
+            float tc = dot(co, u);
+            float r2 = a.w * a.w - (dot(co, co) - tc * tc);
+            if (r2 <= 0.0) continue;
+            float s = sqrt(r2);
+            if (tc + s < t0) continue;
+            best = min(best, max(t0, tc - s - TILE_PAD * (1.0 + abs(tc))));
+            if (best <= t0) return t0;
+        }
+    }
+    return best;
 }
 
 // The kind of grid primitive i: a point kind, known without a fetch when
@@ -509,7 +624,7 @@ Fold fold_indexed(uint what, Query q, inout float len) {
     Fold r = empty_fold();
     g_reach = INFINITY;
     Dda start;
-    bool in_grid = dda_start(q, start);
+    bool in_grid = SC_TILES == 0u && dda_start(q, start);
     for (uint g = 0u; g < globals.sizes.y; ++g) {
         Terms sum = no_terms();
         bool met = g == 0u;
@@ -521,6 +636,37 @@ Fold fold_indexed(uint what, Query q, inout float len) {
             if (SC_BRACKET != 0u && !q.point) g_reach = min(g_reach, reach_entry(pr, q));
             add_terms(what, pr, q, sum, len);
             met = true;
+        }
+        if (SC_TILES != 0u) {
+            list = tile_list(g);
+            end = list_start(list + 1u);
+            // A point query's point is on the ray, at tq.
+            float tq = q.point ? distance(q.o, g_origin) : q.t0;
+            float horizon = tile_horizon(q.point ? tq : q.t1);
+            bool prefix = globals.sizes.y == 1u;
+            for (uint at = tile_begin(list); at < end; ++at) {
+                uvec2 e = tile_entry(at);
+                g_visits += 1u;
+                if (uintBitsToFloat(e.y) > horizon) break;
+                uint i = e.x;
+                vec4 a = uintBitsToFloat(prim_texel(i, 0u));
+                if (prefix) {
+                    if (tile_behind(a, g_origin, g_dir, tq)) {
+                        g_cursor = at + 1u;
+                        continue;
+                    }
+                    prefix = false;
+                }
+                uint kind = grid_kind(i);
+                if (!tile_admits(a, kind == PRIM_GAUSSIAN_POINT, q)) continue;
+                GpuPrimitive pr = GpuPrimitive(a, uintBitsToFloat(prim_texel(i, 1u)), uintBitsToFloat(prim_texel(i, 2u)), uvec4(kind, g, 0u, 0u));
+                if (what == EVAL_GRADIENT) pr.ids.z = prim_texel(i, 3u).z;
+                if (!q.point) g_reach = min(g_reach, reach_entry(pr, q));
+                add_terms(what, pr, q, sum, len);
+                met = true;
+            }
+            if (met) fold_group(what, sum, len, r);
+            continue;
         }
         Dda c = start;
         for (bool more = in_grid; more; more = !q.point && dda_advance(c)) {

@@ -47,6 +47,7 @@ impl Buffer {
         let mut buffer = Buffer::with_usage(ctx, name, texels * format.bytes(), usage)?;
         let vk_format = match format {
             TexelFormat::R32Uint => vk::Format::R32_UINT,
+            TexelFormat::Rg32Uint => vk::Format::R32G32_UINT,
             TexelFormat::Rgba32Uint => vk::Format::R32G32B32A32_UINT,
         };
         let info = vk::BufferViewCreateInfo::default().buffer(buffer.handle).format(vk_format).offset(0).range(vk::WHOLE_SIZE);

@@ -6,6 +6,7 @@ pub mod light;
 pub mod offscreen;
 pub mod optics;
 pub mod rays;
+pub mod tiles;
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -32,6 +33,8 @@ const MARCH_INDEXED_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march
 const BOUNDS_INDEXED_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bounds_indexed.spv"));
 /// The indexed march with the first-crossing bracket ([`brackets`]).
 const MARCH_BRACKET_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march_bracket.spv"));
+/// The bracket's kernel walking the camera's screen-space lists ([`tiles`]).
+const MARCH_TILES_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march_tiles.spv"));
 /// SPIR-V of the spatial index's build.
 const INDEX_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/index.spv"));
 
@@ -57,6 +60,8 @@ struct PipelineKey {
     bracket: bool,
     generic: bool,
     refine: Refinement,
+    /// Candidates from the camera's tile lists ([`tiles`]).
+    tiles: bool,
 }
 
 impl PipelineKey {
@@ -74,6 +79,7 @@ impl PipelineKey {
             bracket: options.bracket,
             generic: options.generic,
             refine: options.refine,
+            tiles: false,
         }
     }
 }
@@ -81,7 +87,7 @@ impl PipelineKey {
 /// Rays per dispatch: big images become many bounded dispatches.
 pub const TILE_RAYS: usize = 1 << 16;
 const WORKGROUP: usize = 64;
-const PUSH_CONSTANT_BYTES: u32 = 12;
+const PUSH_CONSTANT_BYTES: u32 = 16;
 
 /// Loop iterations one invocation may run per dispatch. lavapipe silently
 /// ends any invocation after 65535 loop iterations (all loops together), so
@@ -108,6 +114,14 @@ impl FoldCost {
     /// Without the index: every primitive, and as many to cull them.
     fn flat(primitives: usize) -> FoldCost {
         FoldCost { interval: primitives, point: primitives, cull: primitives, skip: 0 }
+    }
+
+    /// With the camera's tile lists, whose longest holds `longest` entries:
+    /// a walk reads at most a whole list per group, and the skip to the
+    /// first support as many.
+    fn tiles(grid: &GridSpec, longest: usize) -> FoldCost {
+        let walk = grid.groups * (2 + longest) + grid.everywhere;
+        FoldCost { interval: walk, point: walk, cull: 0, skip: walk }
     }
 
     /// With the index whose longest cell list holds `longest` entries.
@@ -261,16 +275,22 @@ pub struct Renderer {
     index_stats: Option<IndexStats>,
     slice_steps: u32,
     pipelines: HashMap<PipelineKey, ComputePipeline>,
+    /// The camera's screen-space lists, for the frame they were built for.
+    tiles: Option<CameraTiles>,
     submitter: Submitter,
     /// Wall-clock nanoseconds spent creating pipelines and compiling their
     /// code ([`Renderer::warm_up`]), apart from every GPU time reported.
     pipeline_ns: f64,
+    /// Build the index only when a march needs it ([`Renderer::for_camera`]).
+    defer_index: bool,
+    /// The index holds the primitives as uploaded.
+    index_fresh: bool,
     /// Give up when the GPU is not done by then.
     pub timeout: Duration,
 }
 
 /// The switches the environment may turn off to measure what they buy.
-pub const ENV_SWITCHES: [&str; 2] = ["ISOMARCH_INDEX", "ISOMARCH_BRACKET"];
+pub const ENV_SWITCHES: [&str; 3] = ["ISOMARCH_INDEX", "ISOMARCH_BRACKET", "ISOMARCH_TILES"];
 
 /// A switch of [`ENV_SWITCHES`]: on unless set to `off` (or `0`);
 /// `Err` names a value that is neither, which [`check_environment`]
@@ -293,6 +313,32 @@ pub fn check_environment() -> Result<()> {
         env_switch(name)?;
     }
     Ok(())
+}
+
+/// The camera's screen-space lists on the GPU ([`tiles::TileLists`]).
+struct CameraTiles {
+    starts: Buffer,
+    entries: Buffer,
+    /// The camera and frame size they were built for, with the scene as
+    /// posed then (`None`: stale).
+    frame: Option<(scene::Camera, u32, u32)>,
+    /// Turns per slice: a walk reads at most the longest list.
+    slice_steps: u32,
+    stats: TileStats,
+}
+
+/// What building the camera's tile lists cost and holds, for statistics.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct TileStats {
+    /// Wall time of the build (on the host, in f64).
+    pub build_ms: f64,
+    /// Entries in the lists (a primitive is in every tile it may cover).
+    pub entries: usize,
+    pub longest_list: usize,
+    /// 8x8 pixel tiles of the frame.
+    pub tiles: usize,
+    /// Bytes of the lists' buffers as filled.
+    pub bytes: usize,
 }
 
 /// A primitive's reach on the GPU (`GpuPrimitive::c.z`) is where its kernel
@@ -446,6 +492,13 @@ impl Renderer {
     /// [`Renderer::new`] with the spatial index or without it (every
     /// primitive in every step, as far as the loop budget allows).
     pub fn with_index(ctx: &Arc<Context>, scene: &Scene, indexed: bool) -> Result<Renderer> {
+        let mut renderer = Renderer::with_index_deferred(ctx, scene, indexed)?;
+        renderer.build_index()?;
+        Ok(renderer)
+    }
+
+    /// [`Renderer::with_index`] without building the index.
+    fn with_index_deferred(ctx: &Arc<Context>, scene: &Scene, indexed: bool) -> Result<Renderer> {
         let limit = ctx.info.max_storage_buffer_range / size_of::<GpuPrimitive>() as u64;
         if scene.primitive_count() as u64 > limit {
             bail!(
@@ -495,19 +548,46 @@ impl Renderer {
             index_stats: None,
             slice_steps: 0,
             pipelines: HashMap::new(),
+            tiles: None,
             submitter: Submitter::new(ctx)?,
             pipeline_ns: 0.0,
+            defer_index: false,
+            index_fresh: false,
             ctx: Arc::clone(ctx),
             scene: scene.clone(),
             timeout: Duration::from_secs(600),
         };
-        renderer.build_index()?;
+        // The slices of a flat march; an index's come with its build.
+        if renderer.grid.is_none() {
+            renderer.build_index()?;
+        }
         Ok(renderer)
+    }
+
+    /// [`Renderer::new`] for frames of camera rays: the spatial index is
+    /// built when a march needs it, not when the camera's tile lists serve
+    /// every ray of the frame (no shadows, occlusion or secondary rays),
+    /// and then again only after the scene moved.
+    pub fn for_camera(ctx: &Arc<Context>, scene: &Scene) -> Result<Renderer> {
+        let indexed = env_switch("ISOMARCH_INDEX").unwrap_or(true);
+        let grid = GridSpec::with_radii(scene, &index::index_radii(scene)).filter(|_| indexed);
+        if grid.is_none() || !scene.bracket_holds() {
+            return Renderer::new(ctx, scene);
+        }
+        // Sized and checked as `new` does, without the build.
+        let mut renderer = Renderer::with_index_deferred(ctx, scene, indexed)?;
+        renderer.defer_index = true;
+        Ok(renderer)
+    }
+
+    /// Builds the index now unless it holds the primitives as uploaded.
+    fn ensure_index(&mut self) -> Result<()> {
+        if self.index_fresh { Ok(()) } else { self.build_index() }
     }
 
     /// What the last build of the spatial index made (`None` without one).
     pub fn index_stats(&self) -> Option<IndexStats> {
-        self.index_stats
+        self.index_stats.filter(|_| self.index_fresh)
     }
 
     /// Builds the spatial index on the GPU from the primitives uploaded
@@ -515,6 +595,7 @@ impl Renderer {
     /// longest list, and sizes the march's slices to it. Without an index,
     /// only the slices.
     fn build_index(&mut self) -> Result<()> {
+        self.index_fresh = true;
         let Some(grid) = self.grid else {
             self.slice_steps = slice_steps(FoldCost::flat(self.scene.primitive_count()), self.scene.lights.len())
                 .map_err(|e| anyhow::anyhow!("{}: groups: {e}", self.scene.source))?;
@@ -557,7 +638,7 @@ impl Renderer {
                             &[],
                         );
                     }
-                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&[count, pass, 0u32]));
+                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&[count, pass, 0u32, 0u32]));
                     d.cmd_dispatch(cmd, (count as usize).div_ceil(WORKGROUP) as u32, 1, 1);
                 }
             }
@@ -610,14 +691,16 @@ impl Renderer {
         self.prims.write(0, &primitives_with_radii(scene, &radii))?;
         self.scene = scene.clone();
         self.grid = grid;
+        // The primitives moved: the lists are another frame's.
+        if let Some(t) = &mut self.tiles {
+            t.frame = None;
+        }
         if let Some([cells, entries, scratch]) = buffers {
             (self.cells, self.entries, self.scratch) = (cells, entries, scratch);
-            let bound = self.bound_buffers();
-            for p in self.pipelines.values().chain(&self.index_pipeline) {
-                p.bind(&bound)?;
-            }
+            self.rebind()?;
         }
-        self.build_index()
+        self.index_fresh = false;
+        if self.defer_index && self.grid.is_some() { Ok(()) } else { self.build_index() }
     }
 
     /// Overwrites the primitive buffer with raw GPU records, as many as the
@@ -628,6 +711,33 @@ impl Renderer {
             bail!("{} raw primitives for a scene of {}", prims.len(), self.scene.primitive_count());
         }
         self.prims.write(0, prims)
+    }
+
+    /// Binds every pipeline to the buffers as they are now (after some
+    /// were replaced by larger ones).
+    fn rebind(&self) -> Result<()> {
+        let grid = self.bound_buffers();
+        for (key, p) in &self.pipelines {
+            if key.tiles {
+                p.bind(&self.tile_buffers().ok_or_else(|| anyhow::anyhow!("a tile pipeline without tile lists"))?)?;
+            } else {
+                p.bind(&grid)?;
+            }
+        }
+        if let Some(p) = &self.index_pipeline {
+            p.bind(&grid)?;
+        }
+        Ok(())
+    }
+
+    /// [`Renderer::bound_buffers`] with the camera's tile lists where the
+    /// march reads its lists (`cell_texels`, `entry_texels`).
+    fn tile_buffers(&self) -> Option<[&Buffer; layout::BINDINGS.len()]> {
+        let t = self.tiles.as_ref()?;
+        let mut b = self.bound_buffers();
+        b[12] = &t.starts;
+        b[13] = &t.entries;
+        Some(b)
     }
 
     /// The buffers behind `layout::BINDINGS`, in binding order (the array's
@@ -657,12 +767,14 @@ impl Renderer {
         entry: EntryPoint,
         method: Method,
         options: &MarchOptions,
+        tiles: bool,
     ) -> Result<(vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)> {
-        let key = PipelineKey::new(entry, method, options);
+        let key = PipelineKey { tiles, ..PipelineKey::new(entry, method, options) };
         if !self.pipelines.contains_key(&key) {
             let started = Instant::now();
             let spec = specialization(&self.scene, method, &key, self.grid.is_some());
             let spirv = match entry {
+                EntryPoint::March if tiles => MARCH_TILES_SPV,
                 EntryPoint::March if self.grid.is_some() && brackets(&self.scene, method, options) => MARCH_BRACKET_SPV,
                 EntryPoint::March if self.grid.is_some() => MARCH_INDEXED_SPV,
                 EntryPoint::March => MARCH_SPV,
@@ -670,7 +782,10 @@ impl Renderer {
                 EntryPoint::BoundsProbe => BOUNDS_SPV,
             };
             let p = ComputePipeline::new(&self.ctx, spirv, layout::BINDINGS, PUSH_CONSTANT_BYTES, &spec)?;
-            p.bind(&self.bound_buffers())?;
+            match tiles {
+                true => p.bind(&self.tile_buffers().ok_or_else(|| anyhow::anyhow!("a tile pipeline without tile lists"))?)?,
+                false => p.bind(&self.bound_buffers())?,
+            }
             self.warm_up((p.pipeline, p.layout, p.set))?;
             self.pipelines.insert(key, p);
             self.pipeline_ns += started.elapsed().as_secs_f64() * 1e9;
@@ -694,7 +809,7 @@ impl Renderer {
     fn warm_up(&mut self, handles: (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)) -> Result<()> {
         let deadline = Instant::now() + self.timeout;
         let (pipeline, layout, set) = handles;
-        let push = [0u32, 1, self.slice_steps];
+        let push = [0u32, 1, self.slice_steps, 0];
         self.submitter.run(deadline, self.timeout, |d, cmd| {
             // SAFETY: as in `dispatch`; no invocation reads or writes a buffer.
             unsafe {
@@ -712,7 +827,7 @@ impl Renderer {
         &mut self,
         (pipeline, layout, set): (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet),
         deadline: Instant,
-        push: [u32; 3],
+        push: [u32; 4],
     ) -> Result<Option<f64>> {
         let groups = (push[0] as usize).div_ceil(WORKGROUP) as u32;
         self.submitter.run(deadline, self.timeout, |d, cmd| {
@@ -739,13 +854,14 @@ impl Renderer {
         {
             bail!("a probe query over [{}, {}] is longer than a step's {} with the spatial index", q.o[3], q.d[3], g.window);
         }
+        self.ensure_index()?;
         let deadline = Instant::now() + self.timeout;
-        let handles = self.pipeline(EntryPoint::BoundsProbe, method, &options)?;
+        let handles = self.pipeline(EntryPoint::BoundsProbe, method, &options, false)?;
         self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad, self.grid.as_ref())])?;
         let mut out = Vec::with_capacity(queries.len());
         for tile in queries.chunks(TILE_RAYS) {
             self.rays.write(0, tile)?;
-            self.dispatch(handles, deadline, [tile.len() as u32, 0, 0])?;
+            self.dispatch(handles, deadline, [tile.len() as u32, 0, 0, 0])?;
             out.extend(self.results.read::<GpuBound>(0, tile.len())?);
         }
         Ok(out)
@@ -755,9 +871,114 @@ impl Renderer {
     /// each tile in slices until every ray is done, all within
     /// `self.timeout`. `progress` gets the number of rays done after each
     /// tile.
-    pub fn march(&mut self, method: Method, options: MarchOptions, rays: &[GpuRay], mut progress: impl FnMut(usize)) -> Result<MarchOutput> {
+    pub fn march(&mut self, method: Method, options: MarchOptions, rays: &[GpuRay], progress: impl FnMut(usize)) -> Result<MarchOutput> {
+        self.march_with(method, options, rays, None, progress)
+    }
+
+    /// [`Renderer::march`] for camera rays of the frame the renderer's
+    /// tile lists were built for ([`Renderer::prepare_camera`]), in tile
+    /// order from ray `first_ray` (a multiple of 64: whole tiles): through
+    /// the lists where they were built for this method, else the grid.
+    pub fn march_camera(&mut self, method: Method, options: MarchOptions, rays: &[GpuRay], first_ray: usize) -> Result<MarchOutput> {
+        let through = self.tiles.as_ref().is_some_and(|t| t.frame.is_some()) && self.tiles_apply(method, &options);
+        if !through {
+            return self.march(method, options, rays, |_| {});
+        }
+        anyhow::ensure!(first_ray.is_multiple_of(WORKGROUP), "camera rays from ray {first_ray}: not a whole tile");
+        self.march_with(method, options, rays, Some(first_ray), |_| {})
+    }
+
+    /// Whether camera rays marched by `method` with `options` take their
+    /// candidates from tile lists: where the first-crossing bracket holds
+    /// with the index (point kernels, opaque first crossings: molecules,
+    /// particles), for every method but conservative field inversion,
+    /// unless `ISOMARCH_TILES=off`. Measured (docs/performance.md, "Tile
+    /// lists"): on 6WG6 at 750x750 every other method's frame is faster
+    /// through the lists (quadratic Taylor 615 -> 374 ms, segment 892 ->
+    /// 620, dynamol's rule 447 -> 410), field inversion's slower (551 ->
+    /// 589: its many short steps each read a list's prefix again); on
+    /// 1,000 particles at 500x500 every method is faster through them.
+    pub fn tiles_apply(&self, method: Method, options: &MarchOptions) -> bool {
+        self.grid.is_some()
+            && method != Method::FieldInversion
+            && !options.any_hit
+            && brackets(&self.scene, method, options)
+            && env_switch("ISOMARCH_TILES").unwrap_or(true)
+    }
+
+    /// Builds the tile lists of `camera`'s `width` x `height` frame of the
+    /// scene as posed now (kept until the scene or the frame changes) when
+    /// camera rays marched by `method` with `options` would use them.
+    /// Returns whether they did.
+    pub fn prepare_camera(&mut self, method: Method, options: &MarchOptions, camera: &scene::Camera, width: u32, height: u32) -> Result<bool> {
+        if !self.tiles_apply(method, options) {
+            return Ok(false);
+        }
+        let frame = (camera.clone(), width, height);
+        if self.tiles.as_ref().is_some_and(|t| t.frame.as_ref() == Some(&frame)) {
+            return Ok(true);
+        }
+        let grid = self.grid.expect("tiles apply with the index only");
+        let started = Instant::now();
+        let prims = primitives_with_radii(&self.scene, &index::index_radii(&self.scene));
+        let lists = tiles::TileLists::build(&prims, grid.groups as u32, camera, width, height);
+        let Ok(steps) = slice_steps(FoldCost::tiles(&grid, lists.longest), self.scene.lights.len()) else {
+            // A list longer than a dispatch's loop budget: the grid.
+            return Ok(false);
+        };
+        let build_ns = started.elapsed().as_secs_f64() * 1e9;
+        let fits = self
+            .tiles
+            .as_ref()
+            .is_some_and(|t| t.starts.size >= 4 * lists.starts.len() as u64 && t.entries.size >= 8 * lists.entries.len().max(1) as u64);
+        if !fits {
+            let grow = |bytes: usize| (bytes.max(16) as u64).next_power_of_two();
+            let starts = Buffer::texels(&self.ctx, "tile list starts", grow(4 * lists.starts.len()), TexelFormat::R32Uint, true)?;
+            let entries = Buffer::texels(&self.ctx, "tile list entries", grow(8 * lists.entries.len()), TexelFormat::Rg32Uint, true)?;
+            self.tiles = Some(CameraTiles { starts, entries, frame: None, slice_steps: steps, stats: TileStats::default() });
+            self.rebind()?;
+        }
+        let t = self.tiles.as_mut().expect("made above");
+        t.starts.write(0, &lists.starts)?;
+        if !lists.entries.is_empty() {
+            t.entries.write(0, &lists.entries)?;
+        }
+        t.frame = Some(frame);
+        t.slice_steps = steps;
+        t.stats = TileStats {
+            build_ms: build_ns * 1e-6,
+            entries: lists.entries.len(),
+            longest_list: lists.longest,
+            tiles: (lists.tiles_x * lists.tiles_y) as usize,
+            bytes: lists.bytes(),
+        };
+        Ok(true)
+    }
+
+    /// What the last build of the camera's tile lists made.
+    pub fn tile_stats(&self) -> Option<TileStats> {
+        self.tiles.as_ref().map(|t| t.stats)
+    }
+
+    /// The march: camera rays from ray `camera_from` through the tile
+    /// lists when given, else through the grid or the flat list.
+    fn march_with(
+        &mut self,
+        method: Method,
+        options: MarchOptions,
+        rays: &[GpuRay],
+        camera_from: Option<usize>,
+        mut progress: impl FnMut(usize),
+    ) -> Result<MarchOutput> {
+        if camera_from.is_none() {
+            self.ensure_index()?;
+        }
         let deadline = Instant::now() + self.timeout;
-        let handles = self.pipeline(EntryPoint::March, method, &options)?;
+        let handles = self.pipeline(EntryPoint::March, method, &options, camera_from.is_some())?;
+        let slice_steps = match (camera_from, &self.tiles) {
+            (Some(_), Some(t)) => t.slice_steps,
+            _ => self.slice_steps,
+        };
         self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad, self.grid.as_ref())])?;
         if method.inverts() {
             Inversion::of_field(&Field::new(&self.scene)).map_err(|e| anyhow::anyhow!("{}: {e}", self.scene.source))?;
@@ -771,15 +992,16 @@ impl Renderer {
         let mut crossings = Vec::new();
         let mut gpu_ns = Some(0.0);
         // Every slice but a ray's last takes `slice_steps` turns.
-        let max_slices = max_turns(self.scene.marching.max_steps) / u64::from(self.slice_steps) + 2;
-        for tile in rays.chunks(TILE_RAYS) {
+        let max_slices = max_turns(self.scene.marching.max_steps) / u64::from(slice_steps) + 2;
+        for (chunk, tile) in rays.chunks(TILE_RAYS).enumerate() {
+            let first_tile = camera_from.map_or(0, |from| (from + chunk * TILE_RAYS) / WORKGROUP) as u32;
             self.rays.write(0, tile)?;
             for slice in 0.. {
                 if slice > max_slices {
-                    bail!("rays still marching after {slice} slices of {} turns: a marcher ignores its step budget", self.slice_steps);
+                    bail!("rays still marching after {slice} slices of {slice_steps} turns: a marcher ignores its step budget");
                 }
                 self.active.write(0, &[0u32])?;
-                let push: [u32; 3] = [tile.len() as u32, u32::from(slice == 0), self.slice_steps];
+                let push: [u32; 4] = [tile.len() as u32, u32::from(slice == 0), slice_steps, first_tile];
                 let ns = self.dispatch(handles, deadline, push)?;
                 gpu_ns = gpu_ns.zip(ns).map(|(a, b)| a + b);
                 if self.active.read::<u32>(0, 1)?[0] == 0 {

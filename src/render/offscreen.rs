@@ -110,8 +110,15 @@ pub struct RenderStats {
     pub pipeline_ms: f64,
     #[serde(flatten)]
     pub march: MarchStats,
-    /// The spatial index the frame was marched with (`null` in JSON for
-    /// scenes of at most 64 primitives, which march without one).
+    /// What gave the camera rays their candidates: `tiles` (the camera's
+    /// screen-space lists), `grid` (the spatial index) or `flat` (every
+    /// primitive, culled per ray: scenes of at most 64 primitives).
+    pub acceleration: &'static str,
+    /// The camera's tile lists (`null` unless `acceleration` is `tiles`).
+    pub tiles: Option<super::TileStats>,
+    /// The spatial index (`null` in JSON for scenes of at most 64
+    /// primitives, which march without one); with tiles, the shadow and
+    /// occlusion rays walk it.
     pub index: Option<IndexStats>,
     /// Memory when the frame was marched.
     pub memory: Memory,
@@ -147,6 +154,8 @@ pub struct FrameReport {
     pub march: MarchStats,
     /// What the build of the spatial index made (`None` without one).
     pub index: Option<IndexStats>,
+    /// The camera's tile lists, where the camera rays took them.
+    pub tiles: Option<super::TileStats>,
     /// The memory in use while the renderer held the scene.
     pub memory: Memory,
     /// Wall-clock milliseconds of pipeline creation and compilation
@@ -157,11 +166,14 @@ pub struct FrameReport {
 /// [`render_frame`], with the rest of a [`FrameReport`].
 pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<FrameReport> {
     let scene = job.scene.recentred_on_camera();
-    let mut renderer = Renderer::new(ctx, &scene)?;
+    let mut renderer = Renderer::for_camera(ctx, &scene)?;
     renderer.timeout = job.timeout;
-    let (frame, march) = march_image(&mut renderer, job.method, MarchOptions::for_scene(&scene), &scene, (job.width, job.height), job.samples)?;
+    let options = MarchOptions::for_scene(&scene);
+    let tiled = renderer.prepare_camera(job.method, &options, &scene.camera, job.width, job.height)?;
+    let (frame, march) = march_image(&mut renderer, job.method, options, &scene, (job.width, job.height), job.samples)?;
     let memory = Memory::now(ctx);
-    Ok(FrameReport { frame, march, index: renderer.index_stats(), memory, pipeline_ms: renderer.pipeline_ms() })
+    let tiles = renderer.tile_stats().filter(|_| tiled);
+    Ok(FrameReport { frame, march, index: renderer.index_stats(), tiles, memory, pipeline_ms: renderer.pipeline_ms() })
 }
 
 /// `n` rays per pixel, checked as `--samples` (1 to `scene::MAX_SAMPLES`).
@@ -197,9 +209,12 @@ pub fn march_image(
     let mut marched = Vec::new();
     let mut gpu_ns = Some(0.0);
     let mut light = super::light::LightStats { gpu_ns: Some(0.0), ..Default::default() };
+    // One build of the tile lists serves every sample: they hold what any
+    // ray through any point of a tile's pixels meets.
+    renderer.prepare_camera(method, &options, &scene.camera, width, height)?;
     for s in 0..n {
         let (rays, pixels) = camera_rays_through(&scene.camera, width, height, &scene.bounds, |p| subpixel(p, s, n, SAMPLE_SEED));
-        let out = march_frame(renderer, method, options, &rays)?;
+        let out = march_camera_frame(renderer, method, options, &rays, 0)?;
         gpu_ns = gpu_ns.zip(out.gpu_ns).map(|(a, b)| a + b);
         light.add(&out.light);
         let frame = Frame::from_results(width, height, &out.results, &pixels);
@@ -249,11 +264,37 @@ pub fn pixel_stats(out: &super::MarchOutput, pixels: &[Option<u32>]) -> MarchSta
 /// reflections and refractions (`optics::trace`): each pixel's colour is the
 /// traced one, and its steps and evaluations count every ray spawned for it.
 pub fn march_frame(renderer: &mut Renderer, method: Method, options: MarchOptions, rays: &[crate::layout::GpuRay]) -> Result<super::MarchOutput> {
+    march_rays(renderer, method, options, rays, None)
+}
+
+/// [`march_frame`] for camera rays in tile order, from ray `first_ray` of
+/// the frame the renderer prepared ([`Renderer::prepare_camera`]): through
+/// its tile lists where they apply.
+pub fn march_camera_frame(
+    renderer: &mut Renderer,
+    method: Method,
+    options: MarchOptions,
+    rays: &[crate::layout::GpuRay],
+    first_ray: usize,
+) -> Result<super::MarchOutput> {
+    march_rays(renderer, method, options, rays, Some(first_ray))
+}
+
+fn march_rays(
+    renderer: &mut Renderer,
+    method: Method,
+    options: MarchOptions,
+    rays: &[crate::layout::GpuRay],
+    camera_from: Option<usize>,
+) -> Result<super::MarchOutput> {
     let dielectric = renderer.scene().transparency.and_then(|t| {
         t.ior.map(|ior| super::optics::Dielectric { ior, absorption: t.absorption, max_depth: t.max_depth, reflectivity: t.reflectivity })
     });
     let Some(material) = dielectric else {
-        let mut out = renderer.march(method, options, rays, |_| {})?;
+        let mut out = match camera_from {
+            Some(first) => renderer.march_camera(method, options, rays, first)?,
+            None => renderer.march(method, options, rays, |_| {})?,
+        };
         out.light = super::light::apply(renderer, method, options, rays, &mut out)?;
         return Ok(out);
     };
@@ -273,7 +314,7 @@ pub fn march_frame(renderer: &mut Renderer, method: Method, options: MarchOption
 /// Renders and writes every requested file. All files are encoded before
 /// the first is written, and each is written atomically.
 pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStats> {
-    let FrameReport { frame, march, index, memory, pipeline_ms } = render_frame_indexed(ctx, job)?;
+    let FrameReport { frame, march, index, tiles, memory, pipeline_ms } = render_frame_indexed(ctx, job)?;
     let stats = RenderStats {
         scene: job.scene.source.clone(),
         method: job.method.to_string(),
@@ -283,6 +324,14 @@ pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStat
         samples: job.samples,
         pipeline_ms,
         march,
+        acceleration: if tiles.is_some() {
+            "tiles"
+        } else if index.is_some() {
+            "grid"
+        } else {
+            "flat"
+        },
+        tiles,
         index,
         memory,
     };

@@ -1,0 +1,313 @@
+//! Screen-space lists for camera rays (dynamol's per-pixel lists, 3D
+//! Gaussian splatting's tile lists): each 8x8 pixel tile (one 64-wide
+//! workgroup of camera rays, `rays::PIXEL_TILE`) gets, per group, every
+//! point primitive whose clipped support a ray of the tile may meet, in
+//! the order the rays reach them (the distance from the eye to the support's
+//! nearest point). A step's candidates are then a prefix of its tile's list:
+//! the walk reads entries from the front and stops at the first that starts
+//! beyond the step's window. Every lane of a workgroup reads the same
+//! entries, where the grid made each ray walk its own cells.
+//!
+//! The lists are built on the host, in f64, from the primitives as the GPU
+//! holds them (f32 centres and clip radii), and are conservative: a ray
+//! through any point of any pixel of a tile (anti-aliasing samples included)
+//! finds every support it meets in its tile's list. Supports that reach the
+//! eye's plane go into every tile; supports behind the eye into none.
+
+use glam::DVec3;
+
+use super::rays::PIXEL_TILE;
+use crate::layout::GpuPrimitive;
+use crate::scene::Camera;
+
+/// A support's radius is padded by this fraction of its distance from the
+/// eye and of itself, so that the f32 rays and the f32 sphere test on the
+/// GPU (which round at about 1e-7) meet nothing the f64 binning left out.
+const RADIUS_PAD: f64 = 1e-5;
+/// Pixel coordinates of a support's projection are padded by this much.
+const PIXEL_PAD: f64 = 1e-3;
+
+/// The lists of one camera frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TileLists {
+    pub width: u32,
+    pub height: u32,
+    pub tiles_x: u32,
+    pub tiles_y: u32,
+    pub groups: u32,
+    /// Where each list starts in `entries`, list `tile * groups + g` for
+    /// group g of tile `tile` (tiles in row-major order; the shader's
+    /// `tile_list`); one more at the end holds the total.
+    pub starts: Vec<u32>,
+    /// The entries: a primitive index (into the GPU's primitive buffer)
+    /// and its [`TileLists::depth`] as f32 bits, rounded down (a walk may
+    /// stop at the first entry whose depth is beyond its query without
+    /// fetching the primitive); each list sorted by depth, then by index.
+    pub entries: Vec<[u32; 2]>,
+    /// The longest list's length.
+    pub longest: usize,
+}
+
+/// The camera's frame: eye, unit axes, and the half-extents of the image
+/// plane at distance 1, as `rays::camera_rays_through` makes its rays.
+#[derive(Clone, Copy, Debug)]
+struct View {
+    eye: DVec3,
+    forward: DVec3,
+    right: DVec3,
+    up: DVec3,
+    half_w: f64,
+    half_h: f64,
+}
+
+impl View {
+    fn new(cam: &Camera, width: u32, height: u32) -> View {
+        let forward = (cam.target - cam.eye).normalize();
+        let right = forward.cross(cam.up).normalize();
+        let up = right.cross(forward);
+        let half_h = (0.5 * cam.fov_y_deg.to_radians()).tan();
+        let half_w = half_h * f64::from(width) / f64::from(height);
+        View { eye: cam.eye, forward, right, up, half_w, half_h }
+    }
+}
+
+/// The range of slopes `x/z` of the lines through the origin that meet the
+/// disc of radius `r` about `(x, z)` in the plane, for `z > r`: its two
+/// tangents.
+fn slopes(x: f64, z: f64, r: f64) -> (f64, f64) {
+    let q = z * z - r * r;
+    let root = r * (x * x + q).sqrt();
+    ((x * z - root) / q, (x * z + root) / q)
+}
+
+/// The tiles, as an inclusive range `(x0, x1, y0, y1)`, whose rays may meet
+/// the ball of radius `r` about `c`; `None` when no camera ray meets it
+/// (behind the eye, or off the image).
+fn tile_range(view: &View, width: u32, height: u32, c: DVec3, r: f64) -> Option<(u32, u32, u32, u32)> {
+    let tiles_x = width.div_ceil(PIXEL_TILE);
+    let tiles_y = height.div_ceil(PIXEL_TILE);
+    let all = Some((0, tiles_x - 1, 0, tiles_y - 1));
+    let rel = c - view.eye;
+    let r = r * (1.0 + RADIUS_PAD) + RADIUS_PAD * rel.length();
+    let z = rel.dot(view.forward);
+    if z + r <= 0.0 {
+        return None;
+    }
+    if z - r <= 1e-9 * r.max(1e-300) {
+        // The ball reaches the eye's plane: rays of every direction may
+        // meet it.
+        return all;
+    }
+    let (sx0, sx1) = slopes(rel.dot(view.right), z, r);
+    let (sy0, sy1) = slopes(rel.dot(view.up), z, r);
+    // Pixel coordinates (from the image's top-left corner) of those slopes:
+    // sx = (2 px / w - 1) half_w, sy = (1 - 2 py / h) half_h.
+    let (w, h) = (f64::from(width), f64::from(height));
+    let px0 = (sx0 / view.half_w + 1.0) * 0.5 * w - PIXEL_PAD;
+    let px1 = (sx1 / view.half_w + 1.0) * 0.5 * w + PIXEL_PAD;
+    let py0 = (1.0 - sy1 / view.half_h) * 0.5 * h - PIXEL_PAD;
+    let py1 = (1.0 - sy0 / view.half_h) * 0.5 * h + PIXEL_PAD;
+    // Pixel x holds the rays of [x, x + 1].
+    if !(px1 >= 0.0 && px0 <= w && py1 >= 0.0 && py0 <= h) {
+        return None;
+    }
+    let tile = |p: f64, n: u32| ((p.max(0.0) / f64::from(PIXEL_TILE)).floor() as u32).min(n - 1);
+    Some((tile(px0, tiles_x), tile(px1, tiles_x), tile(py0, tiles_y), tile(py1, tiles_y)))
+}
+
+impl TileLists {
+    /// The distance from the eye to the nearest point of the ball of
+    /// radius `r` about `c` (0 inside): no ray from the eye meets the ball
+    /// before it. The lists' order.
+    pub fn depth(eye: DVec3, c: DVec3, r: f64) -> f64 {
+        ((c - eye).length() - r).max(0.0)
+    }
+
+    /// The lists of `prims` (the GPU's records: centre and clip radius in
+    /// `a`, group in `ids.y`; every one a point primitive) for `cam`'s
+    /// `width` x `height` frame.
+    pub fn build(prims: &[GpuPrimitive], groups: u32, cam: &Camera, width: u32, height: u32) -> TileLists {
+        let view = View::new(cam, width, height);
+        let tiles_x = width.div_ceil(PIXEL_TILE);
+        let tiles_y = height.div_ceil(PIXEL_TILE);
+        let tiles = (tiles_x * tiles_y) as usize;
+        let lists = tiles * groups.max(1) as usize;
+        let ball = |p: &GpuPrimitive| (DVec3::new(p.a[0].into(), p.a[1].into(), p.a[2].into()), f64::from(p.a[3]));
+        let ranges: Vec<Option<(u32, u32, u32, u32)>> = prims
+            .iter()
+            .map(|p| {
+                let (c, r) = ball(p);
+                tile_range(&view, width, height, c, r)
+            })
+            .collect();
+        // Counting sort into the lists, then each list by depth.
+        let mut counts = vec![0u32; lists + 1];
+        let per_tile = groups.max(1) as usize;
+        for (p, range) in prims.iter().zip(&ranges) {
+            let Some((x0, x1, y0, y1)) = *range else { continue };
+            for ty in y0..=y1 {
+                for tx in x0..=x1 {
+                    counts[(ty * tiles_x + tx) as usize * per_tile + p.ids[1] as usize] += 1;
+                }
+            }
+        }
+        let mut starts = vec![0u32; lists + 1];
+        for k in 0..lists {
+            starts[k + 1] = starts[k] + counts[k];
+        }
+        let mut fill = starts.clone();
+        let mut entries = vec![[0u32; 2]; starts[lists] as usize];
+        for (i, (p, range)) in prims.iter().zip(&ranges).enumerate() {
+            let Some((x0, x1, y0, y1)) = *range else { continue };
+            for ty in y0..=y1 {
+                for tx in x0..=x1 {
+                    let list = (ty * tiles_x + tx) as usize * per_tile + p.ids[1] as usize;
+                    entries[fill[list] as usize] = [i as u32, 0];
+                    fill[list] += 1;
+                }
+            }
+        }
+        let depth: Vec<f64> = prims
+            .iter()
+            .map(|p| {
+                let (c, r) = ball(p);
+                TileLists::depth(view.eye, c, r)
+            })
+            .collect();
+        let mut longest = 0;
+        for k in 0..lists {
+            let list = &mut entries[starts[k] as usize..starts[k + 1] as usize];
+            list.sort_unstable_by(|a, b| depth[a[0] as usize].total_cmp(&depth[b[0] as usize]).then(a[0].cmp(&b[0])));
+            for e in list.iter_mut() {
+                e[1] = f32_below(depth[e[0] as usize]).to_bits();
+            }
+            longest = longest.max(list.len());
+        }
+        TileLists { width, height, tiles_x, tiles_y, groups: groups.max(1), starts, entries, longest }
+    }
+
+    /// Group `g`'s list of tile `tile` (row-major).
+    pub fn list(&self, g: u32, tile: u32) -> &[[u32; 2]] {
+        let k = (tile * self.groups + g) as usize;
+        &self.entries[self.starts[k] as usize..self.starts[k + 1] as usize]
+    }
+
+    /// Bytes of the two buffers on the GPU.
+    pub fn bytes(&self) -> usize {
+        4 * self.starts.len() + 8 * self.entries.len()
+    }
+}
+
+/// The largest f32 not above `x` (x >= 0 and finite).
+fn f32_below(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) > x { f.next_down() } else { f }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::rays::camera_rays_through;
+    use crate::scene::Aabb;
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    fn point(c: DVec3, r: f64, group: u32) -> GpuPrimitive {
+        GpuPrimitive { a: [c.x as f32, c.y as f32, c.z as f32, r as f32], b: [0.0; 4], c: [0.0, r as f32, r as f32, 0.0], ids: [0, group, 0, 0] }
+    }
+
+    /// Whether the f64 ray meets the ball at some t >= 0.
+    fn meets(o: DVec3, d: DVec3, c: DVec3, r: f64) -> bool {
+        let co = c - o;
+        let tc = co.dot(d).max(0.0);
+        (co - tc * d).length_squared() < r * r
+    }
+
+    /// Every support a sampled camera ray meets is in its tile's list: rays
+    /// through random points of every pixel (as anti-aliasing makes them),
+    /// as the renderer makes them in f32, widened.
+    fn assert_contained(prims: &[GpuPrimitive], groups: u32, cam: &Camera, w: u32, h: u32, samples: u32, seed: u64) -> usize {
+        let lists = TileLists::build(prims, groups, cam, w, h);
+        let bounds = Aabb { min: DVec3::splat(-1e6), max: DVec3::splat(1e6) };
+        let mut rng = Pcg64Mcg::seed_from_u64(seed);
+        let mut met = 0;
+        for s in 0..samples {
+            let offsets: Vec<(f64, f64)> = (0..w * h).map(|_| (rng.random::<f64>(), rng.random::<f64>())).collect();
+            let at = |p: u32| if s == 0 { (0.5, 0.5) } else { offsets[p as usize] };
+            let (rays, pixels) = camera_rays_through(cam, w, h, &bounds, at);
+            for (k, (ray, pixel)) in rays.iter().zip(&pixels).enumerate() {
+                if pixel.is_none() {
+                    continue;
+                }
+                let r = crate::render::rays::Ray::from_gpu(ray);
+                let tile = (k / 64) as u32;
+                for (i, p) in prims.iter().enumerate() {
+                    let c = DVec3::new(p.a[0].into(), p.a[1].into(), p.a[2].into());
+                    if meets(r.o, r.d, c, f64::from(p.a[3])) {
+                        met += 1;
+                        assert!(
+                            lists.list(p.ids[1], tile).iter().any(|e| e[0] == i as u32),
+                            "pixel {pixel:?} (tile {tile}) meets primitive {i} at {c} radius {}, which its list leaves out",
+                            p.a[3]
+                        );
+                    }
+                }
+            }
+        }
+        met
+    }
+
+    fn camera(eye: DVec3, target: DVec3, fov: f64) -> Camera {
+        Camera { eye, target, up: DVec3::Y, fov_y_deg: fov, width: 64, height: 64, samples: 1 }
+    }
+
+    #[test]
+    fn every_support_a_camera_ray_meets_is_in_its_tiles_list() {
+        let mut rng = Pcg64Mcg::seed_from_u64(7);
+        let mut prims = Vec::new();
+        for _ in 0..300 {
+            let c = DVec3::new(rng.random_range(-12.0..12.0), rng.random_range(-12.0..12.0), rng.random_range(-12.0..12.0));
+            prims.push(point(c, rng.random_range(0.2..2.5), rng.random_range(0..2)));
+        }
+        // Behind the eye, straddling its plane, around it, larger than the
+        // screen, and off every edge of the frame.
+        let eye = DVec3::new(0.0, 0.0, 9.0);
+        prims.push(point(eye + DVec3::new(0.0, 0.0, 3.0), 1.0, 0));
+        prims.push(point(eye + DVec3::new(2.0, 0.5, 0.3), 1.0, 0));
+        prims.push(point(eye, 0.5, 1));
+        prims.push(point(DVec3::new(0.0, 0.0, -5.0), 40.0, 0));
+        for (x, y) in [(-9.0, 0.0), (9.0, 0.0), (0.0, -9.0), (0.0, 9.0), (8.5, 8.5)] {
+            prims.push(point(DVec3::new(x, y, -2.0), 1.5, 1));
+        }
+        let cam = camera(eye, DVec3::ZERO, 60.0);
+        let mut met = 0;
+        for (w, h) in [(64, 64), (61, 37), (1, 1), (4096, 16), (16, 4096)] {
+            met += assert_contained(&prims, 2, &cam, w, h, if w * h > 20_000 { 1 } else { 3 }, w as u64 * 31 + h as u64);
+        }
+        assert!(met > 10_000, "only {met} ray-support meetings were checked");
+    }
+
+    #[test]
+    fn lists_are_in_depth_order_and_leave_out_what_no_ray_meets() {
+        let cam = camera(DVec3::new(0.0, 0.0, 10.0), DVec3::ZERO, 40.0);
+        let prims = vec![
+            point(DVec3::new(0.0, 0.0, -3.0), 1.0, 0),
+            point(DVec3::new(0.0, 0.0, 3.0), 1.0, 0),
+            point(DVec3::new(0.0, 0.0, 0.0), 1.0, 0),
+            point(DVec3::new(0.0, 0.0, 20.0), 1.0, 0),  // behind the eye
+            point(DVec3::new(100.0, 0.0, 0.0), 1.0, 0), // off the frame
+        ];
+        let lists = TileLists::build(&prims, 1, &cam, 64, 64);
+        // The centre tiles hold the three on the axis, nearest first.
+        let centre = 3 * lists.tiles_x + 3;
+        assert_eq!(lists.list(0, centre).iter().map(|e| e[0]).collect::<Vec<_>>(), [1, 2, 0]);
+        // Their depths, rounded down: 12, 9 and 6 (from z = 10, radius 1).
+        assert_eq!(lists.list(0, centre).iter().map(|e| f32::from_bits(e[1])).collect::<Vec<_>>(), [6.0, 9.0, 12.0]);
+        assert!(lists.entries.iter().all(|e| e[0] < 3), "{:?}", lists.entries);
+        assert_eq!(f32_below(0.1), 0.099_999_994);
+        assert!(f64::from(f32_below(1.0 / 3.0)) <= 1.0 / 3.0);
+        // A corner tile's rays miss the small balls on the axis.
+        assert!(lists.list(0, 0).is_empty());
+        assert_eq!(lists.longest, 3);
+    }
+}
