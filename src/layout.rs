@@ -264,6 +264,10 @@ pub const SKIP_CELLS: u32 = 64;
 /// round at about 1e-7.
 pub const TILE_PAD: f32 = 1e-5;
 
+/// The low bits of a tile list entry's depth word that hold the pixels of
+/// its tile the support may cover (src/render/tiles.rs).
+pub const TILE_PIXEL_BITS: u32 = 12;
+
 /// Float constants shared with GLSL, as `(name, value)`.
 pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] = &[
     ("CELL_PAD", CELL_PAD),
@@ -317,6 +321,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("MAX_CELLS_PER_PRIMITIVE", MAX_CELLS_PER_PRIMITIVE),
     ("SCAN_BLOCK", SCAN_BLOCK),
     ("SKIP_CELLS", SKIP_CELLS),
+    ("TILE_PIXEL_BITS", TILE_PIXEL_BITS),
 ];
 
 /// How a kernel may use a storage buffer.

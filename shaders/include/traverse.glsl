@@ -326,11 +326,26 @@ bool tile_behind(vec4 a, vec3 o, vec3 u, float t0) {
     return r2 <= 0.0 || (past > 0.0 && r2 < past * past);
 }
 
-// A tile list's entry at `at`: the primitive, and the distance from the
-// eye to its support's nearest point (rounded down: no ray from the eye
-// meets the support before it).
+// A tile list's entry at `at`: the primitive, and a word holding the
+// distance from the eye to its support's nearest point (rounded down: no
+// ray from the eye meets the support before it) and, in its low
+// TILE_PIXEL_BITS, the pixels of the tile whose rays may meet the support
+// (src/render/tiles.rs).
 uvec2 tile_entry(uint at) {
     return texelFetch(entry_texels, int(at)).xy;
+}
+
+// An entry's depth.
+float tile_depth(uvec2 e) {
+    return uintBitsToFloat(e.y & ~((1u << TILE_PIXEL_BITS) - 1u));
+}
+
+// Whether the ray's pixel is among those of entry e: its lane is the
+// pixel (x, y) of its 8x8 tile, row by row (src/render/rays.rs).
+bool tile_covers(uvec2 e) {
+    uint x = gl_LocalInvocationID.x & 7u;
+    uint y = gl_LocalInvocationID.x >> 3u;
+    return x >= (e.y & 7u) && x <= ((e.y >> 3u) & 7u) && y >= ((e.y >> 6u) & 7u) && y <= ((e.y >> 9u) & 7u);
 }
 
 // The horizon of a walk to t: an entry whose depth (rounded down from
@@ -363,7 +378,11 @@ float skip_to_support(vec3 o, vec3 u, float t0, float tmax) {
         for (uint at = tile_begin(list); at < end; ++at) {
             uvec2 e = tile_entry(at);
             g_visits += 1u;
-            if (uintBitsToFloat(e.y) > tile_horizon(best)) break;
+            if (tile_depth(e) > tile_horizon(best)) break;
+            if (!tile_covers(e)) {
+                if (prefix) g_cursor = at + 1u;
+                continue;
+            }
             vec4 a = uintBitsToFloat(prim_texel(e.x, 0u));
             if (prefix) {
                 if (tile_behind(a, o, u, t0)) {
@@ -647,7 +666,11 @@ Fold fold_indexed(uint what, Query q, inout float len) {
             for (uint at = tile_begin(list); at < end; ++at) {
                 uvec2 e = tile_entry(at);
                 g_visits += 1u;
-                if (uintBitsToFloat(e.y) > horizon) break;
+                if (tile_depth(e) > horizon) break;
+                if (!tile_covers(e)) {
+                    if (prefix) g_cursor = at + 1u;
+                    continue;
+                }
                 uint i = e.x;
                 vec4 a = uintBitsToFloat(prim_texel(i, 0u));
                 if (prefix) {

@@ -80,13 +80,21 @@ fn slopes(x: f64, z: f64, r: f64) -> (f64, f64) {
     ((x * z - root) / q, (x * z + root) / q)
 }
 
-/// The tiles, as an inclusive range `(x0, x1, y0, y1)`, whose rays may meet
-/// the ball of radius `r` about `c`; `None` when no camera ray meets it
-/// (behind the eye, or off the image).
-fn tile_range(view: &View, width: u32, height: u32, c: DVec3, r: f64) -> Option<(u32, u32, u32, u32)> {
-    let tiles_x = width.div_ceil(PIXEL_TILE);
-    let tiles_y = height.div_ceil(PIXEL_TILE);
-    let all = Some((0, tiles_x - 1, 0, tiles_y - 1));
+/// The pixels whose rays may meet a ball: an inclusive range of pixel
+/// columns and rows, clamped to the frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Pixels {
+    x0: u32,
+    x1: u32,
+    y0: u32,
+    y1: u32,
+}
+
+/// The pixels whose rays may meet the ball of radius `r` about `c`; `None`
+/// when no camera ray meets it (behind the eye, or off the image). A ray
+/// of pixel x passes through the image plane at x + o, o in [0, 1).
+fn pixel_range(view: &View, width: u32, height: u32, c: DVec3, r: f64) -> Option<Pixels> {
+    let all = Some(Pixels { x0: 0, x1: width - 1, y0: 0, y1: height - 1 });
     let rel = c - view.eye;
     let r = r * (1.0 + RADIUS_PAD) + RADIUS_PAD * rel.length();
     let z = rel.dot(view.forward);
@@ -108,12 +116,19 @@ fn tile_range(view: &View, width: u32, height: u32, c: DVec3, r: f64) -> Option<
     let py0 = (1.0 - sy1 / view.half_h) * 0.5 * h - PIXEL_PAD;
     let py1 = (1.0 - sy0 / view.half_h) * 0.5 * h + PIXEL_PAD;
     // Pixel x holds the rays of [x, x + 1].
-    if !(px1 >= 0.0 && px0 <= w && py1 >= 0.0 && py0 <= h) {
+    if !(px1 >= 0.0 && px0 < w && py1 >= 0.0 && py0 < h) {
         return None;
     }
-    let tile = |p: f64, n: u32| ((p.max(0.0) / f64::from(PIXEL_TILE)).floor() as u32).min(n - 1);
-    Some((tile(px0, tiles_x), tile(px1, tiles_x), tile(py0, tiles_y), tile(py1, tiles_y)))
+    let pixel = |p: f64, n: u32| (p.max(0.0).floor() as u32).min(n - 1);
+    Some(Pixels { x0: pixel(px0, width), x1: pixel(px1, width), y0: pixel(py0, height), y1: pixel(py1, height) })
 }
+
+/// The low bits of an entry's depth word: the pixels of its tile whose rays
+/// may meet the support, as the tile-local columns x0..=x1 (bits 0-2, 3-5)
+/// and rows y0..=y1 (bits 6-8, 9-11). The depth keeps the high bits: it
+/// is rounded down to 12 fewer bits of mantissa, still no more than the
+/// support's (shaders/include/traverse.glsl, `tile_entry`).
+pub const PIXEL_BITS: u32 = crate::layout::TILE_PIXEL_BITS;
 
 impl TileLists {
     /// The distance from the eye to the nearest point of the ball of
@@ -131,42 +146,16 @@ impl TileLists {
         let tiles_x = width.div_ceil(PIXEL_TILE);
         let tiles_y = height.div_ceil(PIXEL_TILE);
         let tiles = (tiles_x * tiles_y) as usize;
-        let lists = tiles * groups.max(1) as usize;
+        let per_tile = groups.max(1) as usize;
+        let lists = tiles * per_tile;
         let ball = |p: &GpuPrimitive| (DVec3::new(p.a[0].into(), p.a[1].into(), p.a[2].into()), f64::from(p.a[3]));
-        let ranges: Vec<Option<(u32, u32, u32, u32)>> = prims
+        let ranges: Vec<Option<Pixels>> = prims
             .iter()
             .map(|p| {
                 let (c, r) = ball(p);
-                tile_range(&view, width, height, c, r)
+                pixel_range(&view, width, height, c, r)
             })
             .collect();
-        // Counting sort into the lists, then each list by depth.
-        let mut counts = vec![0u32; lists + 1];
-        let per_tile = groups.max(1) as usize;
-        for (p, range) in prims.iter().zip(&ranges) {
-            let Some((x0, x1, y0, y1)) = *range else { continue };
-            for ty in y0..=y1 {
-                for tx in x0..=x1 {
-                    counts[(ty * tiles_x + tx) as usize * per_tile + p.ids[1] as usize] += 1;
-                }
-            }
-        }
-        let mut starts = vec![0u32; lists + 1];
-        for k in 0..lists {
-            starts[k + 1] = starts[k] + counts[k];
-        }
-        let mut fill = starts.clone();
-        let mut entries = vec![[0u32; 2]; starts[lists] as usize];
-        for (i, (p, range)) in prims.iter().zip(&ranges).enumerate() {
-            let Some((x0, x1, y0, y1)) = *range else { continue };
-            for ty in y0..=y1 {
-                for tx in x0..=x1 {
-                    let list = (ty * tiles_x + tx) as usize * per_tile + p.ids[1] as usize;
-                    entries[fill[list] as usize] = [i as u32, 0];
-                    fill[list] += 1;
-                }
-            }
-        }
         let depth: Vec<f64> = prims
             .iter()
             .map(|p| {
@@ -174,15 +163,47 @@ impl TileLists {
                 TileLists::depth(view.eye, c, r)
             })
             .collect();
-        let mut longest = 0;
-        for k in 0..lists {
-            let list = &mut entries[starts[k] as usize..starts[k + 1] as usize];
-            list.sort_unstable_by(|a, b| depth[a[0] as usize].total_cmp(&depth[b[0] as usize]).then(a[0].cmp(&b[0])));
-            for e in list.iter_mut() {
-                e[1] = f32_below(depth[e[0] as usize]).to_bits();
+        let t = PIXEL_TILE;
+        // Every list of a tile a primitive's pixels cover, with its pixels
+        // in that tile.
+        let covered = |i: usize| {
+            let p = ranges[i];
+            let g = prims[i].ids[1] as usize;
+            p.into_iter().flat_map(move |p| {
+                (p.y0 / t..=p.y1 / t).flat_map(move |ty| {
+                    (p.x0 / t..=p.x1 / t).map(move |tx| {
+                        let local = |v: u32, tile: u32| v.saturating_sub(tile * t).min(t - 1);
+                        let bits = local(p.x0, tx) | local(p.x1, tx) << 3 | local(p.y0, ty) << 6 | local(p.y1, ty) << 9;
+                        ((ty * tiles_x + tx) as usize * per_tile + g, bits)
+                    })
+                })
+            })
+        };
+        // A counting sort into the lists, the primitives taken nearest
+        // first: every list comes out in depth order.
+        let mut counts = vec![0u32; lists + 1];
+        for i in 0..prims.len() {
+            for (list, _) in covered(i) {
+                counts[list] += 1;
             }
-            longest = longest.max(list.len());
         }
+        let mut starts = vec![0u32; lists + 1];
+        for k in 0..lists {
+            starts[k + 1] = starts[k] + counts[k];
+        }
+        let mut order: Vec<u32> = (0..prims.len() as u32).filter(|&i| ranges[i as usize].is_some()).collect();
+        order.sort_unstable_by(|&a, &b| depth[a as usize].total_cmp(&depth[b as usize]).then(a.cmp(&b)));
+        let mut fill = starts.clone();
+        let mut entries = vec![[0u32; 2]; starts[lists] as usize];
+        let mask = (1u32 << PIXEL_BITS) - 1;
+        for &i in &order {
+            let key = f32_below(depth[i as usize]).to_bits() & !mask;
+            for (list, bits) in covered(i as usize) {
+                entries[fill[list] as usize] = [i, key | bits];
+                fill[list] += 1;
+            }
+        }
+        let longest = counts.iter().copied().max().unwrap_or(0) as usize;
         TileLists { width, height, tiles_x, tiles_y, groups: groups.max(1), starts, entries, longest }
     }
 
@@ -245,9 +266,15 @@ mod tests {
                     let c = DVec3::new(p.a[0].into(), p.a[1].into(), p.a[2].into());
                     if meets(r.o, r.d, c, f64::from(p.a[3])) {
                         met += 1;
+                        let (x, y) = (pixel.unwrap() % w % PIXEL_TILE, pixel.unwrap() / w % PIXEL_TILE);
+                        let mask = (1 << PIXEL_BITS) - 1;
+                        let covers = |e: &[u32; 2]| {
+                            let b = e[1] & mask;
+                            (b & 7..=b >> 3 & 7).contains(&x) && (b >> 6 & 7..=b >> 9 & 7).contains(&y)
+                        };
                         assert!(
-                            lists.list(p.ids[1], tile).iter().any(|e| e[0] == i as u32),
-                            "pixel {pixel:?} (tile {tile}) meets primitive {i} at {c} radius {}, which its list leaves out",
+                            lists.list(p.ids[1], tile).iter().any(|e| e[0] == i as u32 && covers(e)),
+                            "pixel {pixel:?} (tile {tile}) meets primitive {i} at {c} radius {}, which its list leaves out or says it does not cover",
                             p.a[3]
                         );
                     }
@@ -301,8 +328,17 @@ mod tests {
         // The centre tiles hold the three on the axis, nearest first.
         let centre = 3 * lists.tiles_x + 3;
         assert_eq!(lists.list(0, centre).iter().map(|e| e[0]).collect::<Vec<_>>(), [1, 2, 0]);
-        // Their depths, rounded down: 12, 9 and 6 (from z = 10, radius 1).
-        assert_eq!(lists.list(0, centre).iter().map(|e| f32::from_bits(e[1])).collect::<Vec<_>>(), [6.0, 9.0, 12.0]);
+        // Their depths, rounded down: 6, 9 and 12 (from z = 10, radius 1),
+        // and the pixels of the tile they cover: all 8x8 for the nearest,
+        // fewer for those further.
+        let mask = (1 << PIXEL_BITS) - 1;
+        let depths: Vec<f32> = lists.list(0, centre).iter().map(|e| f32::from_bits(e[1] & !mask)).collect();
+        assert_eq!(depths, [6.0, 9.0, 12.0]);
+        let pixels = |e: &[u32; 2]| {
+            let b = e[1] & mask;
+            ((b & 7)..=(b >> 3 & 7), (b >> 6 & 7)..=(b >> 9 & 7))
+        };
+        assert_eq!(pixels(&lists.list(0, centre)[0]), (0..=7, 0..=7));
         assert!(lists.entries.iter().all(|e| e[0] < 3), "{:?}", lists.entries);
         assert_eq!(f32_below(0.1), 0.099_999_994);
         assert!(f64::from(f32_below(1.0 / 3.0)) <= 1.0 / 3.0);
