@@ -533,12 +533,14 @@ fn a_molecules_any_hit_queries_end_where_a_ray_enters_an_atoms_reach() {
 /// hits and depths are the grid's within the tolerance.
 #[test]
 fn camera_rays_through_tile_lists_find_the_references_hits() {
-    let molecule = isomarch::molecule::build::load_scene(&repo_root().join("tests/data/molecules/1A8O.pdb"), &Default::default()).unwrap().0;
+    let molecule =
+        |name: &str| isomarch::molecule::build::load_scene(&repo_root().join("tests/data/molecules").join(name), &Default::default()).unwrap().0;
     let ctx = gpu();
     for (what, s, (w, h)) in [
         ("1,000 particles", particles(1000, 1, 5), (64, 64)),
         ("900 particles in 3 groups", particles(900, 3, 6), (40, 40)),
-        ("1A8O", molecule, (64, 64)),
+        ("1A8O", molecule("1A8O.pdb"), (64, 64)),
+        ("6WG6", molecule("6WG6.cif.gz"), (64, 64)),
     ] {
         let s = s.recentred_on_camera();
         let tol = tolerance(&s);
