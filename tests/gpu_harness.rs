@@ -236,7 +236,7 @@ fn an_output_that_is_a_folder_is_refused_before_any_work() {
 #[test]
 fn an_environment_switch_that_is_neither_on_nor_off_is_refused() {
     let dir = scratch("env-switches");
-    for name in ["ISOMARCH_BRACKET", "ISOMARCH_INDEX"] {
+    for name in ["ISOMARCH_BRACKET", "ISOMARCH_INDEX", "ISOMARCH_TILES"] {
         let out = Command::new(bin())
             .args(["render", "scenes/fig1.ron", "--size", "8x8", "-o"])
             .arg(dir.join("x.png"))

@@ -891,19 +891,17 @@ impl Renderer {
     /// Whether camera rays marched by `method` with `options` take their
     /// candidates from tile lists: where the first-crossing bracket holds
     /// with the index (point kernels, opaque first crossings: molecules,
-    /// particles), for every method but conservative field inversion,
-    /// unless `ISOMARCH_TILES=off`. Measured (docs/performance.md, "Tile
-    /// lists"): on 6WG6 at 750x750 every other method's frame is faster
-    /// through the lists (quadratic Taylor 615 -> 374 ms, segment 892 ->
-    /// 620, dynamol's rule 447 -> 410), field inversion's slower (551 ->
-    /// 589: its many short steps each read a list's prefix again); on
-    /// 1,000 particles at 500x500 every method is faster through them.
+    /// particles), unless `ISOMARCH_TILES=off`. Measured
+    /// (docs/performance.md, "Tile lists"; medians of 5 interleaved
+    /// frames): on 6WG6 at 750x750 quadratic Taylor's frame is 630 ms
+    /// through the grid and 373 through the lists, segment's 929 and 636,
+    /// dynamol's rule 448 and 409, and conservative field inversion's a
+    /// tie (568 and 570); on 1,000 particles at 500x500 quadratic Taylor's
+    /// 148 and 75, segment's 209 and 112; a million at 256x256 1,186 and
+    /// 706 (one frame each). Where the lists do not fit a dispatch's loop
+    /// budget ([`Renderer::prepare_camera`]), the grid.
     pub fn tiles_apply(&self, method: Method, options: &MarchOptions) -> bool {
-        self.grid.is_some()
-            && method != Method::FieldInversion
-            && !options.any_hit
-            && brackets(&self.scene, method, options)
-            && env_switch("ISOMARCH_TILES").unwrap_or(true)
+        self.grid.is_some() && !options.any_hit && brackets(&self.scene, method, options) && env_switch("ISOMARCH_TILES").unwrap_or(true)
     }
 
     /// Builds the tile lists of `camera`'s `width` x `height` frame of the
