@@ -86,7 +86,10 @@ void main() {
     if ((m.flags & FLAG_HIT) != 0u) {
         // The first crossing: its normal and distance. A transparent march
         // may have passed it slices ago, behind what culling kept.
-        if (SC_TRANSPARENT != 0u) uncull();
+        if (SC_TRANSPARENT != 0u) {
+            uncull();
+            g_cursor = 0u;
+        }
         float t = SC_TRANSPARENT != 0u ? m.first : m.t;
         vec3 n = surface_normal(o + t * u);
         r.hit = vec4(n, t);

@@ -233,13 +233,20 @@ const VARIANT_CONSTANT: &str = "SC_INDEX";
 const BRACKET_CONSTANT: &str = "SC_BRACKET";
 /// `SC_TILES`, camera rays' candidates from the screen-space lists
 /// (src/render/tiles.rs) instead of the grid walk, is the bracket's kernel
-/// with that walk replaced (`march_tiles.spv`, `ISOMARCH_TILES`).
+/// with that walk replaced (`march_tiles.spv`, `ISOMARCH_TILES`); the
+/// same walk without the bracket marches transparent camera rays, every
+/// crossing (`march_tiles_crossings.spv`, `ISOMARCH_TILES_CROSSINGS`).
 const TILES_CONSTANT: &str = "SC_TILES";
 
 /// The build variants of shader `stem`: (macro, value, file suffix).
 pub fn shader_variants(stem: &str) -> Vec<(&'static str, &'static str, &'static str)> {
     match stem {
-        "march" => vec![("ISOMARCH_INDEXED", "1u", "_indexed"), ("ISOMARCH_BRACKET", "1u", "_bracket"), ("ISOMARCH_TILES", "1u", "_tiles")],
+        "march" => vec![
+            ("ISOMARCH_INDEXED", "1u", "_indexed"),
+            ("ISOMARCH_BRACKET", "1u", "_bracket"),
+            ("ISOMARCH_TILES", "1u", "_tiles"),
+            ("ISOMARCH_TILES_CROSSINGS", "1u", "_tiles_crossings"),
+        ],
         "bounds" => vec![("ISOMARCH_INDEXED", "1u", "_indexed")],
         _ => Vec::new(),
     }
@@ -548,6 +555,7 @@ pub fn glsl() -> String {
     // The build variants (shader_variants), or, without one, neither.
     s.push_str(&format!(
         "#if defined(ISOMARCH_TILES)\nconst uint {VARIANT_CONSTANT} = 1u;\nconst uint {BRACKET_CONSTANT} = 1u;\nconst uint {TILES_CONSTANT} = 1u;\n\
+         #elif defined(ISOMARCH_TILES_CROSSINGS)\nconst uint {VARIANT_CONSTANT} = 1u;\nconst uint {BRACKET_CONSTANT} = 0u;\nconst uint {TILES_CONSTANT} = 1u;\n\
          #elif defined(ISOMARCH_BRACKET)\nconst uint {VARIANT_CONSTANT} = 1u;\nconst uint {BRACKET_CONSTANT} = 1u;\nconst uint {TILES_CONSTANT} = 0u;\n\
          #elif defined(ISOMARCH_INDEXED)\nconst uint {VARIANT_CONSTANT} = ISOMARCH_INDEXED;\nconst uint {BRACKET_CONSTANT} = 0u;\nconst uint {TILES_CONSTANT} = 0u;\n\
          #else\nconst uint {VARIANT_CONSTANT} = 0u;\nconst uint {BRACKET_CONSTANT} = 0u;\nconst uint {TILES_CONSTANT} = 0u;\n#endif\n"

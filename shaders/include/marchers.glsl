@@ -397,6 +397,8 @@ void algorithm1_turn(vec3 o, vec3 u, float tmax, inout March m) {
     }
     // A step's interval ends where f >= 0 is known (BRACKETS).
     if (BRACKETS && !refining && m.far > t0) t1 = min(t1, m.far);
+    // Where later queries may go back to (the tile walk's cursor).
+    g_floor = (m.flags & FLAG_REFINING) != 0u ? min(t0, m.ra) : t0;
     uint before = g_evals;
     StepEval e = step_eval(o, u, t0, t1);
     if (refining) {

@@ -302,10 +302,14 @@ uint tile_list(uint g) {
 }
 
 // With one group, the ray's first entry of its list still worth reading:
-// every entry before it the ray misses, or has passed before the point
-// where the march stands (its queries never go back before it; opaque
-// first crossings only). Kept across slices in the march state.
+// every entry before it the ray misses, or has left before g_floor, the
+// least parameter of any later query of the ray. Kept across slices in
+// the march state.
 uint g_cursor = 0u;
+// An opaque march's queries never go back before the one being made; a
+// transparent march refines a crossing behind while it steps on, back to
+// its bracket's start (algorithm1_turn sets it).
+float g_floor = 0.0;
 
 // Where a walk of `list` starts.
 uint tile_begin(uint list) {
@@ -662,6 +666,7 @@ Fold fold_indexed(uint what, Query q, inout float len) {
             // A point query's point is on the ray, at tq.
             float tq = q.point ? distance(q.o, g_origin) : q.t0;
             float horizon = tile_horizon(q.point ? tq : q.t1);
+            float behind = SC_TRANSPARENT != 0u ? min(tq, g_floor) : tq;
             bool prefix = globals.sizes.y == 1u;
             for (uint at = tile_begin(list); at < end; ++at) {
                 uvec2 e = tile_entry(at);
@@ -674,7 +679,7 @@ Fold fold_indexed(uint what, Query q, inout float len) {
                 uint i = e.x;
                 vec4 a = uintBitsToFloat(prim_texel(i, 0u));
                 if (prefix) {
-                    if (tile_behind(a, g_origin, g_dir, tq)) {
+                    if (tile_behind(a, g_origin, g_dir, behind)) {
                         g_cursor = at + 1u;
                         continue;
                     }
@@ -684,7 +689,7 @@ Fold fold_indexed(uint what, Query q, inout float len) {
                 if (!tile_admits(a, kind == PRIM_GAUSSIAN_POINT, q)) continue;
                 GpuPrimitive pr = GpuPrimitive(a, uintBitsToFloat(prim_texel(i, 1u)), uintBitsToFloat(prim_texel(i, 2u)), uvec4(kind, g, 0u, 0u));
                 if (what == EVAL_GRADIENT) pr.ids.z = prim_texel(i, 3u).z;
-                if (!q.point) g_reach = min(g_reach, reach_entry(pr, q));
+                if (SC_BRACKET != 0u && !q.point) g_reach = min(g_reach, reach_entry(pr, q));
                 add_terms(what, pr, q, sum, len);
                 met = true;
             }

@@ -35,6 +35,8 @@ const BOUNDS_INDEXED_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/boun
 const MARCH_BRACKET_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march_bracket.spv"));
 /// The bracket's kernel walking the camera's screen-space lists ([`tiles`]).
 const MARCH_TILES_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march_tiles.spv"));
+/// The same walk without the bracket: transparent camera rays.
+const MARCH_TILES_CROSSINGS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march_tiles_crossings.spv"));
 /// SPIR-V of the spatial index's build.
 const INDEX_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/index.spv"));
 
@@ -774,7 +776,8 @@ impl Renderer {
             let started = Instant::now();
             let spec = specialization(&self.scene, method, &key, self.grid.is_some());
             let spirv = match entry {
-                EntryPoint::March if tiles => MARCH_TILES_SPV,
+                EntryPoint::March if tiles && brackets(&self.scene, method, options) => MARCH_TILES_SPV,
+                EntryPoint::March if tiles => MARCH_TILES_CROSSINGS_SPV,
                 EntryPoint::March if self.grid.is_some() && brackets(&self.scene, method, options) => MARCH_BRACKET_SPV,
                 EntryPoint::March if self.grid.is_some() => MARCH_INDEXED_SPV,
                 EntryPoint::March => MARCH_SPV,
@@ -889,9 +892,11 @@ impl Renderer {
     }
 
     /// Whether camera rays marched by `method` with `options` take their
-    /// candidates from tile lists: where the first-crossing bracket holds
-    /// with the index (point kernels, opaque first crossings: molecules,
-    /// particles), unless `ISOMARCH_TILES=off`. Measured
+    /// candidates from tile lists: with the index, where every primitive
+    /// is a point kernel of non-negative weight (the first-crossing
+    /// bracket holds: molecules, particles), for every method but the
+    /// bisection baselines, opaque (the bracket's kernel) or transparent
+    /// (every crossing), unless `ISOMARCH_TILES=off`. Measured
     /// (docs/performance.md, "Tile lists"; medians of 5 interleaved
     /// frames): on 6WG6 at 750x750 quadratic Taylor's frame is 630 ms
     /// through the grid and 373 through the lists, segment's 929 and 636,
@@ -901,7 +906,12 @@ impl Renderer {
     /// 706 (one frame each). Where the lists do not fit a dispatch's loop
     /// budget ([`Renderer::prepare_camera`]), the grid.
     pub fn tiles_apply(&self, method: Method, options: &MarchOptions) -> bool {
-        self.grid.is_some() && !options.any_hit && brackets(&self.scene, method, options) && env_switch("ISOMARCH_TILES").unwrap_or(true)
+        self.grid.is_some()
+            && !options.any_hit
+            && !options.secondary
+            && !method.bisects()
+            && self.scene.bracket_holds()
+            && env_switch("ISOMARCH_TILES").unwrap_or(true)
     }
 
     /// Builds the tile lists of `camera`'s `width` x `height` frame of the
