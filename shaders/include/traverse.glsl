@@ -639,6 +639,16 @@ void add_terms(uint what, GpuPrimitive pr, Query q, inout Terms sum, inout float
     if (what == EVAL_QUAD && SC_HAS_GAUSSIAN_POINT != 0u) len = valid;
 }
 
+// Adds listed point primitive i of group g (its kind, and its texel a
+// already read) to its group's sum, and, for the bracket, where the query
+// enters its reach: what a walk does with an entry it admits.
+void add_listed(uint what, uint i, uint kind, vec4 a, uint g, Query q, inout Terms sum, inout float len) {
+    GpuPrimitive pr = GpuPrimitive(a, uintBitsToFloat(prim_texel(i, 1u)), uintBitsToFloat(prim_texel(i, 2u)), uvec4(kind, g, 0u, 0u));
+    if (what == EVAL_GRADIENT) pr.ids.z = prim_texel(i, 3u).z;
+    if (SC_BRACKET != 0u && !q.point) g_reach = min(g_reach, reach_entry(pr, q));
+    add_terms(what, pr, q, sum, len);
+}
+
 // The fold over the spatial index: per group, its everywhere list and its
 // grid lists along the query. A group is folded into the max when it
 // yields a primitive, and group 0 always, as the flat fold does (so that a
@@ -687,10 +697,7 @@ Fold fold_indexed(uint what, Query q, inout float len) {
                 }
                 uint kind = grid_kind(i);
                 if (!tile_admits(a, kind == PRIM_GAUSSIAN_POINT, q)) continue;
-                GpuPrimitive pr = GpuPrimitive(a, uintBitsToFloat(prim_texel(i, 1u)), uintBitsToFloat(prim_texel(i, 2u)), uvec4(kind, g, 0u, 0u));
-                if (what == EVAL_GRADIENT) pr.ids.z = prim_texel(i, 3u).z;
-                if (SC_BRACKET != 0u && !q.point) g_reach = min(g_reach, reach_entry(pr, q));
-                add_terms(what, pr, q, sum, len);
+                add_listed(what, i, kind, a, g, q, sum, len);
                 met = true;
             }
             if (met) fold_group(what, sum, len, r);
@@ -706,10 +713,7 @@ Fold fold_indexed(uint what, Query q, inout float len) {
                 uint kind = grid_kind(i);
                 vec4 a = uintBitsToFloat(prim_texel(i, 0u));
                 if (!grid_admits(c, a, kind == PRIM_GAUSSIAN_POINT, q)) continue;
-                GpuPrimitive pr = GpuPrimitive(a, uintBitsToFloat(prim_texel(i, 1u)), uintBitsToFloat(prim_texel(i, 2u)), uvec4(kind, g, 0u, 0u));
-                if (what == EVAL_GRADIENT) pr.ids.z = prim_texel(i, 3u).z;
-                if (SC_BRACKET != 0u && !q.point) g_reach = min(g_reach, reach_entry(pr, q));
-                add_terms(what, pr, q, sum, len);
+                add_listed(what, i, kind, a, g, q, sum, len);
                 met = true;
             }
         }
