@@ -258,6 +258,8 @@ fn refraction_and_reflection_walk_the_index() {
     for indexed in [true, false] {
         let mut renderer = Renderer::with_index(&ctx, &s, indexed).unwrap();
         assert_eq!(renderer.index_stats().is_some(), indexed);
+        // Traced through the grid (optics::trace): no tile lists to build.
+        assert!(!renderer.tiles_apply(Method::QuadraticTaylor, &MarchOptions::for_scene(&s)), "a dielectric scene's rays take tile lists");
         let out = isomarch::render::offscreen::march_frame(&mut renderer, Method::QuadraticTaylor, MarchOptions::for_scene(&s), &rays).unwrap();
         frames.push(isomarch::output::Frame::from_results(64, 64, &out.results, &pixels));
     }

@@ -495,11 +495,12 @@ impl Renderer {
     /// primitive in every step, as far as the loop budget allows).
     pub fn with_index(ctx: &Arc<Context>, scene: &Scene, indexed: bool) -> Result<Renderer> {
         let mut renderer = Renderer::with_index_deferred(ctx, scene, indexed)?;
-        renderer.build_index()?;
+        renderer.ensure_index()?;
         Ok(renderer)
     }
 
-    /// [`Renderer::with_index`] without building the index.
+    /// [`Renderer::with_index`] without building the index (nor sizing a
+    /// flat march's slices: [`Renderer::ensure_index`] does both).
     fn with_index_deferred(ctx: &Arc<Context>, scene: &Scene, indexed: bool) -> Result<Renderer> {
         let limit = ctx.info.max_storage_buffer_range / size_of::<GpuPrimitive>() as u64;
         if scene.primitive_count() as u64 > limit {
@@ -533,7 +534,7 @@ impl Renderer {
                 color: [l.color.x as f32, l.color.y as f32, l.color.z as f32, 0.0],
             })
             .collect();
-        let mut renderer = Renderer {
+        let renderer = Renderer {
             globals: Buffer::with_data(ctx, "globals", &[globals(scene, 2.0, scene.marching.quad, grid.as_ref())])?,
             prims: primitive_buffer(ctx, &prims)?,
             lights: Buffer::with_data(ctx, "lights", &lights)?,
@@ -559,10 +560,6 @@ impl Renderer {
             scene: scene.clone(),
             timeout: Duration::from_secs(600),
         };
-        // The slices of a flat march; an index's come with its build.
-        if renderer.grid.is_none() {
-            renderer.build_index()?;
-        }
         Ok(renderer)
     }
 
@@ -572,13 +569,12 @@ impl Renderer {
     /// and then again only after the scene moved.
     pub fn for_camera(ctx: &Arc<Context>, scene: &Scene) -> Result<Renderer> {
         let indexed = env_switch("ISOMARCH_INDEX").unwrap_or(true);
-        let grid = GridSpec::with_radii(scene, &index::index_radii(scene)).filter(|_| indexed);
-        if grid.is_none() || !scene.bracket_holds() {
-            return Renderer::new(ctx, scene);
-        }
-        // Sized and checked as `new` does, without the build.
         let mut renderer = Renderer::with_index_deferred(ctx, scene, indexed)?;
-        renderer.defer_index = true;
+        // Only scenes the lists may serve wait for a march to need the index.
+        renderer.defer_index = scene.bracket_holds();
+        if !renderer.defer_index {
+            renderer.ensure_index()?;
+        }
         Ok(renderer)
     }
 
@@ -718,28 +714,26 @@ impl Renderer {
     /// Binds every pipeline to the buffers as they are now (after some
     /// were replaced by larger ones).
     fn rebind(&self) -> Result<()> {
-        let grid = self.bound_buffers();
         for (key, p) in &self.pipelines {
-            if key.tiles {
-                p.bind(&self.tile_buffers().ok_or_else(|| anyhow::anyhow!("a tile pipeline without tile lists"))?)?;
-            } else {
-                p.bind(&grid)?;
-            }
+            p.bind(&self.buffers_for(key.tiles)?)?;
         }
         if let Some(p) = &self.index_pipeline {
-            p.bind(&grid)?;
+            p.bind(&self.bound_buffers())?;
         }
         Ok(())
     }
 
-    /// [`Renderer::bound_buffers`] with the camera's tile lists where the
-    /// march reads its lists (`cell_texels`, `entry_texels`).
-    fn tile_buffers(&self) -> Option<[&Buffer; layout::BINDINGS.len()]> {
-        let t = self.tiles.as_ref()?;
+    /// The buffers of a pipeline that walks the camera's tile lists
+    /// (`tiles`) or not: [`Renderer::bound_buffers`], with the lists where
+    /// the march reads its lists (`cell_texels`, `entry_texels`).
+    fn buffers_for(&self, tiles: bool) -> Result<[&Buffer; layout::BINDINGS.len()]> {
         let mut b = self.bound_buffers();
-        b[12] = &t.starts;
-        b[13] = &t.entries;
-        Some(b)
+        if tiles {
+            let t = self.tiles.as_ref().ok_or_else(|| anyhow::anyhow!("a tile pipeline without tile lists"))?;
+            b[12] = &t.starts;
+            b[13] = &t.entries;
+        }
+        Ok(b)
     }
 
     /// The buffers behind `layout::BINDINGS`, in binding order (the array's
@@ -785,10 +779,7 @@ impl Renderer {
                 EntryPoint::BoundsProbe => BOUNDS_SPV,
             };
             let p = ComputePipeline::new(&self.ctx, spirv, layout::BINDINGS, PUSH_CONSTANT_BYTES, &spec)?;
-            match tiles {
-                true => p.bind(&self.tile_buffers().ok_or_else(|| anyhow::anyhow!("a tile pipeline without tile lists"))?)?,
-                false => p.bind(&self.bound_buffers())?,
-            }
+            p.bind(&self.buffers_for(tiles)?)?;
             self.warm_up((p.pipeline, p.layout, p.set))?;
             self.pipelines.insert(key, p);
             self.pipeline_ns += started.elapsed().as_secs_f64() * 1e9;
@@ -896,21 +887,18 @@ impl Renderer {
     /// is a point kernel of non-negative weight (the first-crossing
     /// bracket holds: molecules, particles), for every method but the
     /// bisection baselines, opaque (the bracket's kernel) or transparent
-    /// (every crossing), unless `ISOMARCH_TILES=off`. Measured
-    /// (docs/performance.md, "Tile lists"; medians of 5 interleaved
-    /// frames): on 6WG6 at 750x750 quadratic Taylor's frame is 630 ms
-    /// through the grid and 373 through the lists, segment's 929 and 636,
-    /// dynamol's rule 448 and 409, and conservative field inversion's a
-    /// tie (568 and 570); on 1,000 particles at 500x500 quadratic Taylor's
-    /// 148 and 75, segment's 209 and 112; a million at 256x256 1,186 and
-    /// 706 (one frame each). Where the lists do not fit a dispatch's loop
-    /// budget ([`Renderer::prepare_camera`]), the grid.
+    /// (every crossing), unless `ISOMARCH_TILES=off`. A dielectric scene's
+    /// camera rays are traced through the grid (`optics::trace`). Every
+    /// method they serve was measured faster through them, or as fast
+    /// (docs/performance.md, "Tile lists"). Where the lists do not fit a
+    /// dispatch's loop budget ([`Renderer::prepare_camera`]), the grid.
     pub fn tiles_apply(&self, method: Method, options: &MarchOptions) -> bool {
         self.grid.is_some()
             && !options.any_hit
             && !options.secondary
             && !method.bisects()
             && self.scene.bracket_holds()
+            && self.scene.transparency.is_none_or(|t| t.ior.is_none())
             && env_switch("ISOMARCH_TILES").unwrap_or(true)
     }
 
