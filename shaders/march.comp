@@ -83,15 +83,30 @@ void main() {
     // Shading evaluations are not marching cost: count only the march.
     r.counts = uvec4(m.steps, g_evals, m.refine_evals, m.flags & (FLAG_HIT | FLAG_OUT_OF_STEPS));
     r.crossings = uvec4(m.crossings, g_visits, turns, 0u);
+    // A transparent camera ray's crossings, shaded now (on_crossing): the
+    // culling and the tile walk's cursor widened to all of them.
+    vec3 deferred = vec3(0.0);
+    if (defers_shading() && m.crossings > 0u) {
+        cull_to_ray(o, u, m.first, m.last);
+        g_cursor = 0u;
+        g_floor = m.first;
+        deferred = shade_crossings(o, u, ray.o.w, m.crossings);
+    }
     if ((m.flags & FLAG_HIT) != 0u) {
         // The first crossing: its normal and distance. A transparent march
         // may have passed it slices ago, behind what culling kept.
-        if (SC_TRANSPARENT != 0u) {
-            uncull();
-            g_cursor = 0u;
-        }
         float t = SC_TRANSPARENT != 0u ? m.first : m.t;
-        vec3 n = surface_normal(o + t * u);
+        vec3 n;
+        if (defers_shading() && m.crossings > 0u) {
+            n = g_first_normal;
+            g_color = g_first_color;
+        } else {
+            if (SC_TRANSPARENT != 0u) {
+                uncull();
+                g_cursor = 0u;
+            }
+            n = surface_normal(o + t * u);
+        }
         r.hit = vec4(n, t);
         if (SC_SHADE != 0u) {
             r.color = vec4(shade(n, u), 1.0);
@@ -103,7 +118,7 @@ void main() {
     }
     if (SC_TRANSPARENT != 0u && SC_SHADE != 0u) {
         // What the crossings let through shows the background.
-        r.color = vec4(m.color + m.transmittance * globals.background.rgb, 1.0);
+        r.color = vec4(deferred + m.color + m.transmittance * globals.background.rgb, 1.0);
     }
     results[i] = r;
 }

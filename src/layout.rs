@@ -365,6 +365,11 @@ pub struct Block {
 pub enum Resource {
     /// A storage buffer block.
     Buffer(Block),
+    /// A uniform buffer block (`std140`; its members must lay out as in
+    /// `std430`, vec4 and uvec4 only): on lavapipe a uniform load is
+    /// branch-free, where a storage-buffer load is a loop over the lanes
+    /// (docs/performance.md). For the few bytes every turn reads.
+    Uniform(Block),
     /// A read-only view of a buffer as texels, read with `texelFetch`:
     /// `uniform {sampler} {name};`. On lavapipe a texel fetch is one gather,
     /// where a storage-buffer load is a loop over the lanes with a bounds
@@ -429,7 +434,12 @@ const fn buffer(index: u32, access: Access, name: &'static str, member: &'static
 
 /// Every binding, by index from 0.
 pub const BINDINGS: &[Binding] = &[
-    buffer(0, Access::ReadOnly, "GlobalsBuffer", "GpuGlobals globals"),
+    Binding {
+        index: 0,
+        resource: Resource::Uniform(Block { access: Access::ReadOnly, name: "GlobalsBuffer", member: "GpuGlobals globals" }),
+        probe: None,
+        doc: &[],
+    },
     Binding {
         doc: &["Written by the host; index.comp reads it here, the march as prim_texels."],
         ..buffer(1, Access::ReadOnly, "PrimitiveBuffer", "GpuPrimitive prims[]")
@@ -444,7 +454,7 @@ pub const BINDINGS: &[Binding] = &[
     Binding { doc: &["Rays still marching after this dispatch."], ..buffer(6, Access::ReadWrite, "ActiveBuffer", "uint active_rays") },
     Binding {
         doc: &["Transparent rendering: each ray's crossings, MAX_CROSSINGS per ray, in", "order; the first is entering, then they alternate."],
-        ..buffer(7, Access::WriteOnly, "CrossingBuffer", "float crossings[]")
+        ..buffer(7, Access::ReadWrite, "CrossingBuffer", "float crossings[]")
     },
     Binding {
         doc: &[
@@ -496,6 +506,7 @@ fn glsl_block(index: u32, block: &Block) -> String {
 fn glsl_resource(index: u32, resource: &Resource) -> String {
     match resource {
         Resource::Buffer(block) => glsl_block(index, block),
+        Resource::Uniform(block) => format!("layout(std140, binding = {index}) uniform {} {{ {}; }};\n", block.name, block.member),
         Resource::Texels { sampler, name, .. } => format!("layout(binding = {index}) uniform {sampler} {name};\n"),
         // Only the index build (index.comp defines INDEX_BUILD) declares
         // the storage images: lavapipe builds every kernel that declares
@@ -588,7 +599,7 @@ mod tests {
     fn generated_bindings_declare_every_buffer() {
         let glsl = super::glsl_bindings();
         for declaration in [
-            "layout(std430, binding = 0) readonly buffer GlobalsBuffer { GpuGlobals globals; };\n",
+            "layout(std140, binding = 0) uniform GlobalsBuffer { GpuGlobals globals; };\n",
             "layout(std430, binding = 1) readonly buffer PrimitiveBuffer { GpuPrimitive prims[]; };\n",
             "layout(std430, binding = 2) readonly buffer LightBuffer { GpuLight lights[]; };\n",
             "layout(std430, binding = 3) readonly buffer RayBuffer { GpuRay rays[]; };\n",
@@ -602,7 +613,7 @@ mod tests {
              layout(std430, binding = 6) buffer ActiveBuffer { uint active_rays; };\n",
             "// Transparent rendering: each ray's crossings, MAX_CROSSINGS per ray, in\n\
              // order; the first is entering, then they alternate.\n\
-             layout(std430, binding = 7) writeonly buffer CrossingBuffer { float crossings[]; };\n",
+             layout(std430, binding = 7) buffer CrossingBuffer { float crossings[]; };\n",
         ] {
             assert!(glsl.contains(declaration), "missing:\n{declaration}\nin:\n{glsl}");
         }

@@ -7,9 +7,9 @@ use glam::DVec3;
 use isomarch::Method;
 use isomarch::bench::{accuracy, accuracy_all, match_window, reference_crossings, reference_hits};
 use isomarch::field::quad::{QuadSettings, ValidityScope};
-use isomarch::layout::{FLAG_HIT, GpuRay, GpuResult};
+use isomarch::layout::{FLAG_HIT, GpuRay, GpuResult, MAX_CROSSINGS};
 use isomarch::output::MarchStats;
-use isomarch::render::rays::{Ray, camera_rays, protocol_rays};
+use isomarch::render::rays::{Ray, camera_rays, clipped_ray, protocol_rays};
 use isomarch::render::{MarchOptions, Renderer};
 use isomarch::scene::Scene;
 
@@ -305,6 +305,43 @@ fn transparent_marching_finds_every_crossing_on_gpu_and_f64() {
     assert!(checked > 500, "only {checked} reference crossings: the test is not looking at much");
     assert!(report.is_empty(), "disagreements with the f64 reference:\n{}", report.join("\n"));
     assert_no_validation(&ctx);
+}
+
+/// A transparent camera ray shades the crossings its buffer holds after
+/// its march (marchers.glsl, shade_crossings) and those past the buffer's
+/// MAX_CROSSINGS as it finds them (on_crossing). Along the axis of a row
+/// of separate blobs every crossing shades alike (two-sided, the normal
+/// along the ray), so with no absorption n crossings give
+/// `S (1 - (1-α)^n) + (1-α)^n background`. S comes from one blob (2 crossings); 20 blobs
+/// give 40 crossings, 8 past the buffer, which at α = 0.02 carry
+/// 0.98^32 - 0.98^40 = 7.7% of S: dropped, shaded twice or out of order,
+/// the colour would be off by that much.
+#[test]
+fn crossings_past_the_buffer_are_shaded_in_order() {
+    let ctx = gpu();
+    let alpha = 0.02;
+    let march = |blobs: usize, method: Method| {
+        let prims = (0..blobs).map(|i| compact(DVec3::new(0.0, 0.0, -3.0 * i as f64), 1.0)).collect();
+        let mut s = scene(vec![prims], 0.5, method, 0.05);
+        s.transparency = Some(isomarch::scene::Transparency { opacity: alpha, absorption: DVec3::ZERO, ior: None, max_depth: 6, reflectivity: 1.0 });
+        let ray = clipped_ray(DVec3::new(0.0, 0.0, 10.0), -DVec3::Z, &s.bounds);
+        let out = Renderer::new(&ctx, &s).unwrap().march(method, MarchOptions::for_scene(&s), &[ray], |_| {}).unwrap();
+        let r = out.results[0];
+        (r.crossings[0], DVec3::new(r.color[0].into(), r.color[1].into(), r.color[2].into()), s.background)
+    };
+    for method in [Method::Segment, Method::QuadraticTaylor] {
+        let (two, one_blob, bg) = march(1, method);
+        assert_eq!(two, 2, "{method}: one blob on its axis is crossed twice");
+        let kept = |n: i32| (1.0 - alpha).powi(n);
+        let shade = (one_blob - kept(2) * bg) / (1.0 - kept(2));
+        assert!(shade.min_element() > 0.05, "{method}: the surface is lit ({shade})");
+        let (n, row, _) = march(20, method);
+        assert!(n > MAX_CROSSINGS, "{method}: the test needs crossings past the buffer");
+        assert_eq!(n, 40, "{method}: twenty blobs on their axis are crossed forty times");
+        let expected = shade * (1.0 - kept(40)) + kept(40) * bg;
+        let err = (row - expected).abs().max_element();
+        assert!(err < 1e-4, "{method}: 40 crossings composite to {row}, expected {expected} (off by {err})");
+    }
 }
 
 /// The bisection baselines stop at the first crossing: asked for a

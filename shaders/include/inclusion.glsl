@@ -47,6 +47,40 @@ vec3 gaussian_derivs(float amp, float alpha, float x) {
 // SIMD lanes: each root is clamped into the interval, which adds at worst
 // an end point already counted, and only the needed derivative is computed.
 
+// Quadratic Taylor's terms of the compact kernel w (a - s)³, s = x²/R²,
+// on [x0, x1]: k'' = -6 w/R² (a - s)(a - 5 s) is a quadratic in s, whose
+// range over the interval's range of s (clipped to the support, s <= a)
+// is that of its ends and its vertex s = 3a/5 (x = ±√(3/5) l, as in
+// compact_taylor): three products, and no square root but the entry's.
+Taylor compact_taylor_quadratic(float w, float inv_r2, float radius, float h2, float x0, float x1, bool EXTEND) {
+    Taylor k = Taylor(0.0, 0.0, 0.0, 0.0);
+    float a = 1.0 - h2 * inv_r2;
+    float xn = clamp(0.0, x0, x1);    // the interval's point nearest the closest approach
+    float s_lo = xn * xn * inv_r2;
+    if (!(s_lo < a)) return k;        // the support misses the interval: only this test
+    g_evals += 1u;
+    float s0 = x0 * x0 * inv_r2;
+    float q0 = max(a - s0, 0.0);
+    k.value = w * q0 * q0 * q0;
+    k.slope = -6.0 * w * x0 * q0 * q0 * inv_r2;
+    float s_hi = min(max(s0, x1 * x1 * inv_r2), a);
+    float s_m = clamp(0.6 * a, s_lo, s_hi);
+    float c = -6.0 * w * inv_r2;
+    float d_lo = c * (a - s_lo) * (a - 5.0 * s_lo);
+    float d_hi = c * (a - s_hi) * (a - 5.0 * s_hi);
+    float d_m = c * (a - s_m) * (a - 5.0 * s_m);
+    k.lo = min(min(d_lo, d_hi), d_m);
+    k.hi = max(max(d_lo, d_hi), d_m);
+    if (EXTEND && x0 < 0.0 && s0 > a) {
+        // Entered after x0, at xa = -l (compact_taylor's EXTEND).
+        float l = sqrt(a) * radius;
+        float xb = min(x1, l);
+        float r = (xb + l) / (xb - x0);
+        k = Taylor(0.0, 0.0, 0.0, max(k.hi, 0.0) * r * r);
+    }
+    return k;
+}
+
 // k' or k'' of the compact kernel w (a - x²/R²)³ at x inside the support.
 float compact_deriv(float w, float inv_r2, float a, float x, bool QUADRATIC) {
     float q = max(a - x * x * inv_r2, 0.0);
@@ -58,6 +92,7 @@ float compact_deriv(float w, float inv_r2, float a, float x, bool QUADRATIC) {
 // from the entry, where the kernel and two derivatives vanish, moved to
 // start at x0; scale r or r², r = (xb - xa)/(xb - x0); lower bound 0.
 Taylor compact_taylor(float w, float inv_r2, float radius, float h2, float x0, float x1, bool QUADRATIC, bool EXTEND) {
+    if (QUADRATIC) return compact_taylor_quadratic(w, inv_r2, radius, h2, x0, x1, EXTEND);
     Taylor k = Taylor(0.0, 0.0, 0.0, 0.0);
     float a = 1.0 - h2 * inv_r2;
     if (a <= 0.0) return k;

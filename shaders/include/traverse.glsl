@@ -56,13 +56,10 @@ uvec4 prim_texel(uint i, uint k) {
     return texelFetch(prim_texels, int(4u * i + k));
 }
 
-// The flat list (scenes of at most 64 primitives, a few loads a step)
-// reads the storage buffer: a pipeline with texel fetches takes lavapipe
-// about a second longer to build, which only the index's scenes repay.
-// The culling below, a pass over every primitive for every ray, reads
-// texels all the same: on fig10 it was most of what a short ray costs.
+// Every fold reads the texels, the flat list's too (it read the storage
+// buffer, whose four vec4 loads were 36% of a fig1 segment-tracing ray's
+// instructions: docs/performance.md, "Where a turn's instructions went").
 GpuPrimitive load_prim(uint i) {
-    if (SC_INDEX == 0u) return prims[i];
     return GpuPrimitive(uintBitsToFloat(prim_texel(i, 0u)), uintBitsToFloat(prim_texel(i, 1u)), uintBitsToFloat(prim_texel(i, 2u)),
                         prim_texel(i, 3u));
 }

@@ -100,10 +100,23 @@ impl Buffer {
         Ok(Buffer { ctx: Arc::clone(ctx), handle, allocation: Some(allocation), size, view: vk::BufferView::null() })
     }
 
-    /// A buffer holding `data`.
+    /// A storage buffer holding `data`.
     pub fn with_data<T: bytemuck::Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer> {
-        let bytes: &[u8] = bytemuck::cast_slice(data);
-        let mut buffer = Buffer::new(ctx, name, bytes.len() as u64)?;
+        Buffer::holding(ctx, name, data, vk::BufferUsageFlags::STORAGE_BUFFER)
+    }
+
+    /// A uniform buffer holding `data`, at most 16 KiB (the least
+    /// maxUniformBufferRange Vulkan allows).
+    pub fn uniform<T: bytemuck::Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer> {
+        let bytes = size_of_val(data);
+        if bytes > 16384 {
+            bail!("{name}: {bytes} bytes exceed the 16 KiB every device's uniform buffers hold");
+        }
+        Buffer::holding(ctx, name, data, vk::BufferUsageFlags::UNIFORM_BUFFER)
+    }
+
+    fn holding<T: bytemuck::Pod>(ctx: &Arc<Context>, name: &str, data: &[T], usage: vk::BufferUsageFlags) -> Result<Buffer> {
+        let mut buffer = Buffer::with_usage(ctx, name, size_of_val(data) as u64, usage)?;
         buffer.write(0, data)?;
         Ok(buffer)
     }

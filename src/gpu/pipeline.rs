@@ -13,6 +13,7 @@ use crate::layout::{Binding, Resource};
 fn descriptor_type(b: &Binding) -> vk::DescriptorType {
     match b.resource {
         Resource::Buffer(_) => vk::DescriptorType::STORAGE_BUFFER,
+        Resource::Uniform(_) => vk::DescriptorType::UNIFORM_BUFFER,
         Resource::Texels { .. } => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
         Resource::Image { .. } => vk::DescriptorType::STORAGE_TEXEL_BUFFER,
     }
@@ -134,7 +135,7 @@ impl ComputePipeline {
         let mut writes = Vec::with_capacity(buffers.len());
         for (i, &ty) in self.types.iter().enumerate() {
             let write = vk::WriteDescriptorSet::default().dst_set(self.set).dst_binding(i as u32).descriptor_type(ty);
-            writes.push(if ty == vk::DescriptorType::STORAGE_BUFFER {
+            writes.push(if ty == vk::DescriptorType::STORAGE_BUFFER || ty == vk::DescriptorType::UNIFORM_BUFFER {
                 write.buffer_info(&infos[i])
             } else {
                 if views[i][0] == vk::BufferView::null() {

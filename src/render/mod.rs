@@ -535,7 +535,7 @@ impl Renderer {
             })
             .collect();
         let renderer = Renderer {
-            globals: Buffer::with_data(ctx, "globals", &[globals(scene, 2.0, scene.marching.quad, grid.as_ref())])?,
+            globals: Buffer::uniform(ctx, "globals", &[globals(scene, 2.0, scene.marching.quad, grid.as_ref())])?,
             prims: primitive_buffer(ctx, &prims)?,
             lights: Buffer::with_data(ctx, "lights", &lights)?,
             rays: Buffer::new(ctx, "rays", (TILE_RAYS * size_of::<GpuRay>()) as u64)?,
