@@ -46,16 +46,32 @@ void main() {
     if ((m.flags & FLAG_REFINING) != 0u) from = min(from, m.ra);
     // A ray that misses the box is done before it starts: no culling.
     if ((m.flags & FLAG_DONE) == 0u) cull_to_ray(o, u, from, ray.d.w);
-    // One step or one evaluation of a refinement per turn (slice_steps turns).
-    for (uint k = 0u; k < push.slice_steps && (m.flags & FLAG_DONE) == 0u; ++k) {
-        turns += 1u;
-        if (!bisects) {
-            algorithm1_turn(o, u, ray.d.w, m);
-        } else if ((m.flags & FLAG_REFINING) != 0u) {
-            refine_turn(o, u, m);
-        } else {
-            bisection_step(o, u, ray.o.w, ray.d.w, m);
+    // One step or one evaluation of a refinement per turn (slice_steps
+    // turns). A transparent march records the turn's crossings after it,
+    // and leaves the loop to shade one there (marchers.glsl, on_crossing):
+    // lavapipe runs every branch of the loop's body each turn, taken or
+    // not, so code that few turns need is kept out of it.
+    uint k = 0u;
+    for (;;) {
+        for (; k < push.slice_steps && (m.flags & FLAG_DONE) == 0u; ++k) {
+            turns += 1u;
+            if (!bisects) {
+                algorithm1_turn(o, u, ray.d.w, m);
+            } else if ((m.flags & FLAG_REFINING) != 0u) {
+                refine_turn(o, u, m);
+            } else {
+                bisection_step(o, u, ray.o.w, ray.d.w, m);
+            }
+            if (SC_TRANSPARENT != 0u) {
+                record_crossings(o, u, m);
+                if (g_pending != 0u) {
+                    k += 1u;
+                    break;
+                }
+            }
         }
+        if (SC_TRANSPARENT == 0u || g_pending == 0u) break;
+        shade_pending(o, u, m);
     }
     // The flags' upper half holds the refinement's turns and side.
     uint packed = m.flags | (m.refine_turns << 16u) | (m.refine_side << 24u);

@@ -282,7 +282,14 @@ pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] = &[
     ("SECANT_STRADDLE", SECANT_STRADDLE),
     ("INVERSION_OVER_RELAXATION", INVERSION_OVER_RELAXATION),
     ("DYNAMOL_EPSILON", DYNAMOL_EPSILON),
+    ("PROVEN_MARGIN", PROVEN_MARGIN),
 ];
+
+/// A transparent march's proven crossings lie this fraction of iso past
+/// the bound's root (`field::bound::proven_root`, the GPU's `proven_root`):
+/// the march goes on from there, so the field's sign at that point must
+/// survive its next evaluation's rounding.
+pub const PROVEN_MARGIN: f32 = 1e-4;
 
 /// Field inversion's over-relaxation ω (src/field/inversion.rs).
 pub const INVERSION_OVER_RELAXATION: f32 = 1.2;

@@ -30,8 +30,10 @@ fn num(v: &Value, field: &str) -> f64 {
 /// than half on the point method (segment tracing), whose brackets are a
 /// minimum step long; the inclusion methods' opaque brackets start between
 /// their bounds' roots, already short. Inclusion refinement is secant for
-/// segment tracing and for transparent marches, and on fig10 it takes
-/// fewer than half secant's evaluations for the inclusion methods; the
+/// segment tracing; for the inclusion methods it takes fewer than half
+/// secant's evaluations on fig10, and fewer than three quarters on fig1,
+/// transparent, whose crossings (entering and leaving) are bracketed by a
+/// minimum step, not by the bounds' roots (4.35 against 7.04); the
 /// default (inclusion) takes at most 10 kernel evaluations per hit on
 /// fig10. (Secant on a bracket between the bounds' roots starts without f
 /// at its ends, so its first turn bisects: about 10.2 per hit there.)
@@ -55,8 +57,10 @@ fn refinements_agree_and_inclusion_and_secant_take_fewer_evaluations() {
             if point {
                 assert!(rs < 0.5 * rb, "{row}: refinement evaluations per ray {rs} (secant) against {rb} (bisection)");
             }
-            if point || scene.ends_with("fig1.ron") {
+            if point {
                 assert_eq!(ri, rs, "{row}: inclusion refinement is secant here");
+            } else if scene.ends_with("fig1.ron") {
+                assert!(ri < 0.75 * rs, "{row}: refinement evaluations per ray {ri} (inclusion) against {rs} (secant)");
             } else {
                 assert!(ri < 0.5 * rs, "{row}: refinement evaluations per ray {ri} (inclusion) against {rs} (secant)");
             }

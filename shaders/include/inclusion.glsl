@@ -570,6 +570,18 @@ float lower_root(Bound b) {
     return b.v >= 0.0 ? 0.0 : first_root(-b.v, b.a_lo, b.b_lo);
 }
 
+// Where the bound on the far side of f's sign at t0 passes `margin`
+// beyond 0: from outside (f < 0) where the lower bound reaches margin, so
+// f >= margin is proven; from inside (f > 0) where the upper bound falls
+// to -margin (transparent marching). INFINITY where it stays short, and on
+// the surface (f = 0). The margin keeps the sign there certain to the next
+// evaluation's rounding. Mirrors field::bound::proven_root.
+float proven_root(Bound b, float margin) {
+    if (b.v < 0.0) return first_root(margin - b.v, b.a_lo, b.b_lo);
+    if (b.v > 0.0) return first_root(b.v + b.e_hi + margin, -b.a_hi, -b.b_hi);
+    return INFINITY;
+}
+
 // Algorithm 1's next root: of the upper bound outside (f < 0), of the lower
 // bound inside (transparent rendering marches both).
 float next_root(Bound b) {

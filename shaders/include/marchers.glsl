@@ -100,6 +100,35 @@ bool defers_shading() {
     return SC_TRANSPARENT != 0u && SC_SHADE != 0u && SC_SECONDARY == 0u && SC_ANY_HIT == 0u;
 }
 
+//
+// lavapipe runs every branch of a turn whether or not a lane takes it, so
+// the turn holds one copy of this: the marchers note a crossing
+// (note_crossing, at most two a turn) and march.comp records them after
+// the turn (record_crossings). A crossing to shade in the loop waits in
+// g_pending until march.comp leaves the turn loop for it (shade_pending).
+void on_crossing(vec3 o, vec3 u, float tc, bool entering, inout March m);
+
+uint g_noted = 0u;
+float g_noted_t[2];
+bool g_noted_entering[2];
+
+void note_crossing(float tc, bool entering) {
+    uint i = min(g_noted, 1u);
+    g_noted_t[i] = tc;
+    g_noted_entering[i] = entering;
+    g_noted += 1u;
+}
+
+void record_crossings(vec3 o, vec3 u, inout March m) {
+    for (uint i = 0u; i < g_noted; ++i) on_crossing(o, u, g_noted_t[i], g_noted_entering[i], m);
+    g_noted = 0u;
+}
+
+// Crossings to shade (a point and the transmittance in front of it).
+uint g_pending = 0u;
+float g_pending_t[2];
+vec3 g_pending_light[2];
+
 void on_crossing(vec3 o, vec3 u, float tc, bool entering, inout March m) {
     uint k = m.crossings;
     if (k < MAX_CROSSINGS) crossings[g_ray * MAX_CROSSINGS + k] = tc;
@@ -111,15 +140,26 @@ void on_crossing(vec3 o, vec3 u, float tc, bool entering, inout March m) {
         if (defers_shading() && k < MAX_CROSSINGS) {
             // shaded by shade_crossings
         } else {
-            uvec2 counted = uvec2(g_evals, g_visits);
-            vec3 n = surface_normal(o + tc * u);
-            g_evals = counted.x;
-            g_visits = counted.y;
-            m.color += m.transmittance * opacity * shade(n, u);
+            uint i = min(g_pending, 1u);
+            g_pending_t[i] = tc;
+            g_pending_light[i] = m.transmittance;
+            g_pending += 1u;
         }
         m.transmittance *= 1.0 - opacity;
     }
     m.last = tc;
+}
+
+// The crossings on_crossing left to shade, in order (outside the turn).
+void shade_pending(vec3 o, vec3 u, inout March m) {
+    for (uint i = 0u; i < g_pending; ++i) {
+        uvec2 counted = uvec2(g_evals, g_visits);
+        vec3 n = surface_normal(o + g_pending_t[i] * u);
+        g_evals = counted.x;
+        g_visits = counted.y;
+        m.color += g_pending_light[i] * globals.material.w * shade(n, u);
+    }
+    g_pending = 0u;
 }
 
 // defers_shading(): the light of the ray's first MAX_CROSSINGS crossings,
@@ -169,7 +209,7 @@ struct StepEval {
 // The methods whose step folds an inclusion bound (Method::has_bound).
 const bool HAS_BOUND = SC_METHOD != METHOD_SPHERE && SC_METHOD != METHOD_SEGMENT && !INVERTS && SC_METHOD != METHOD_RAA
                        && SC_METHOD != METHOD_LINEAR_BISECTION;
-const bool TWO_SIDED = SC_TRANSPARENT == 0u && SC_SECONDARY == 0u && HAS_BOUND;
+const bool TWO_SIDED = SC_SECONDARY == 0u && HAS_BOUND;
 // Interval folds also find where the ray enters a primitive's reach
 // (SC_BRACKET, g_reach in traverse.glsl): f >= 0 there, so the first
 // crossing lies no further. Later steps' intervals end there (March::far),
@@ -201,7 +241,9 @@ StepEval step_eval(vec3 o, vec3 u, float t0, float t1) {
     float valid = t1 - t0;
     float cross = INFINITY;
     if (TWO_SIDED) {
-        float r = lower_root(b);
+        // A transparent march goes on from the proven point: a margin past
+        // the bound's root (field::bound::PROVEN_MARGIN of iso).
+        float r = proven_root(b, SC_TRANSPARENT != 0u ? PROVEN_MARGIN * globals.march.x : 0.0);
         if (r <= valid) cross = r;
     }
     return StepEval(b.v, min(SC_TRANSPARENT != 0u || SC_SECONDARY != 0u ? next_root(b) : upper_root(b), valid), cross,
@@ -252,7 +294,7 @@ void step_apply(vec3 o, vec3 u, float tmax, StepEval e, inout March m) {
             m.flags |= FLAG_DONE;
             return;
         } else {
-            on_crossing(o, u, m.t, !inside, m);
+            note_crossing(m.t, !inside);
         }
         m.flags ^= FLAG_INSIDE;
     }
@@ -264,8 +306,10 @@ void step_apply(vec3 o, vec3 u, float tmax, StepEval e, inout March m) {
         }
         m.far = min(m.far, m.t + e.reach);
     }
-    if (TWO_SIDED && e.cross < INFINITY) {
+    if (TWO_SIDED && SC_TRANSPARENT == 0u && e.cross < INFINITY) {
         // f < 0 up to the upper bound's root, f >= 0 at the lower one's.
+        // (A transparent march steps on: the stretch to the proven point
+        // may hold more crossings, which a jump there would miss.)
         float rb = m.t + e.cross;
         m.flags |= FLAG_HIT;
         if (SC_ANY_HIT != 0u) {
@@ -357,7 +401,9 @@ bool inclusion_next(March m, out float x) {
 
 void inclusion_update(float x, StepEval e, inout March m) {
     float w = m.rb - m.ra;
-    if (e.f >= 0.0) {
+    // Past the crossing: f >= 0 entering, f <= 0 leaving. Before it, the
+    // step and the proven root are those of f's sign at x either way.
+    if ((m.flags & FLAG_REFINE_ENTERING) != 0u ? e.f >= 0.0 : e.f <= 0.0) {
         m.rb = x;
         m.refine_side = 2u;
     } else {
@@ -377,7 +423,7 @@ void refine_finish(vec3 o, vec3 u, inout March m) {
         m.flags |= FLAG_DONE;
         return;
     }
-    on_crossing(o, u, m.rb, (m.flags & FLAG_REFINE_ENTERING) != 0u, m);
+    note_crossing(m.rb, (m.flags & FLAG_REFINE_ENTERING) != 0u);
     if ((m.flags & FLAG_ENDED) != 0u) m.flags |= FLAG_DONE;
 }
 
@@ -412,7 +458,7 @@ void algorithm1_turn(vec3 o, vec3 u, float tmax, inout March m) {
             return;
         }
         t1 = m.rb;
-    } else if (refining) {
+    } else if (refining && !INCLUSION_REFINE) {
         if (!refine_next(m, t0)) {
             refine_finish(o, u, m);
             return;

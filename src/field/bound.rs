@@ -117,13 +117,35 @@ pub fn lower_root(b: &Bound) -> f64 {
     if b.v >= 0.0 { 0.0 } else { first_root(-b.v, b.a_lo, b.b_lo) }
 }
 
-/// For a bound from `t0`: the lower bound's first root where it lies in
-/// the validity interval (a crossing is proven by then), else infinite.
-/// The GPU's `StepEval::cross`.
-pub fn proven_crossing(b: &Bound, t0: f64) -> f64 {
-    let r = lower_root(b);
+/// Where the bound on the far side of the field's sign at its start
+/// passes `margin` beyond 0: from outside (`v < 0`) where the lower bound
+/// reaches `margin`, so the field is proven >= margin; from inside (`v >
+/// 0`) where the upper bound falls to `-margin` (transparent marching).
+/// Infinite where that bound stays short of it, and on the surface (`v =
+/// 0`). The margin makes the field's sign there certain to its next
+/// evaluation, whose rounding could otherwise undo a root of the bound
+/// itself. The GPU's `proven_root`.
+pub fn proven_root(b: &Bound, margin: f64) -> f64 {
+    if b.v < 0.0 {
+        first_root(margin - b.v, b.a_lo, b.b_lo)
+    } else if b.v > 0.0 {
+        first_root(b.hi(0.0) + margin, -b.a_hi, -b.b_hi)
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// For a bound from `t0`: [`proven_root`] where it lies in the validity
+/// interval (a crossing is proven by then), else infinite. The GPU's
+/// `StepEval::cross`.
+pub fn proven_crossing(b: &Bound, t0: f64, margin: f64) -> f64 {
+    let r = proven_root(b, margin);
     if r <= b.t_valid - t0 { r } else { f64::INFINITY }
 }
+
+/// The margin of a transparent march's proven crossings, as a fraction of
+/// iso (see [`proven_root`]); an opaque march's is 0.
+pub const PROVEN_MARGIN: f64 = crate::layout::PROVEN_MARGIN as f64;
 
 /// Where a march from `t0` may step: the first root of the upper bound when
 /// outside (`v < 0`), of the lower bound when inside (Algorithm 1). A

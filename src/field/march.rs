@@ -5,7 +5,7 @@
 use glam::DVec3;
 
 use super::Field;
-use super::bound::{next_root, proven_crossing};
+use super::bound::{PROVEN_MARGIN, next_root, proven_crossing};
 use super::fold::{field_bound, field_linear, field_raa};
 use super::inversion::{Inversion, OVER_RELAXATION};
 use super::quad::QuadSettings;
@@ -82,15 +82,16 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
     let (mut t, mut t_prev, mut window) = (t0, t0, t1 - t0);
     let mut f_prev = 0.0;
     let mut inside = false;
-    // An opaque march of an inclusion method takes the lower bound too
-    // (the GPU's TWO_SIDED).
-    let two_sided = !s.transparent && method.has_bound();
+    // An inclusion method's march takes the bound on the far side of the
+    // field's sign too (the GPU's TWO_SIDED): where it crosses 0, so has f.
+    let two_sided = method.has_bound();
+    let margin = if s.transparent { PROVEN_MARGIN * field.iso } else { 0.0 };
     // dynamol's field inversion: its budget, its hit rule, and the point of
     // smallest inverted distance g so far (the GPU's step_apply).
     let dynamol = method == Method::FieldInversionDynamol;
     let max_steps = if dynamol { s.max_steps.min(DYNAMOL_STEPS) } else { s.max_steps };
     let mut closest = (t0, f64::INFINITY);
-    let bounded = |a: f64, b: f64| refine_inclusion(field, method, o, u, a, b, s);
+    let bounded = |a: f64, b: f64, entering: bool| refine_inclusion(field, method, o, u, a, b, entering, margin, s);
     loop {
         if r.steps >= max_steps {
             r.out_of_steps = true;
@@ -124,7 +125,7 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
                     r.kept += (b.t_valid - t) / len;
                 }
                 if two_sided {
-                    cross = proven_crossing(&b, t);
+                    cross = proven_crossing(&b, t, margin);
                 }
                 // Up to where the bound is valid (Section 4.2).
                 (b.v, next_root(&b).min(b.t_valid - t))
@@ -146,7 +147,7 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
             let tc = if r.steps == 1 {
                 t
             } else if two_sided && s.refine == Refinement::Inclusion {
-                bounded(t_prev, t)
+                bounded(t_prev, t, !inside)
             } else {
                 refine_past(&at, t_prev, f_prev, t, f, !inside, s)
             };
@@ -157,10 +158,12 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
             }
             inside = !inside;
         }
-        if cross < f64::INFINITY {
+        if cross < f64::INFINITY && !s.transparent {
             // f < 0 up to the upper bound's root, f >= 0 at the lower one's.
+            // (A transparent march steps on: the stretch to the proven point
+            // may hold more crossings, which a jump there would miss.)
             let (a, b) = ((t + step).min(t + cross), t + cross);
-            let tc = if s.refine == Refinement::Inclusion { bounded(a, b) } else { refine_past(&at, a, 0.0, b, 0.0, true, s) };
+            let tc = if s.refine == Refinement::Inclusion { bounded(a, b, true) } else { refine_past(&at, a, 0.0, b, 0.0, true, s) };
             r.hit = Some(tc);
             r.crossings.push(tc);
             return r;
@@ -193,13 +196,17 @@ fn refine_past(at: &impl Fn(f64) -> f64, a: f64, fa: f64, b: f64, fb: f64, enter
     bracket.b
 }
 
-/// Inclusion refinement of an entering crossing in `(a, b]`: the GPU's
-/// `inclusion_next` and `inclusion_update` turns.
-fn refine_inclusion(field: &Field, method: Method, o: DVec3, u: DVec3, a: f64, b: f64, s: MarchSettings) -> f64 {
+/// Inclusion refinement of a crossing in `(a, b]` (`entering`: f < 0 at
+/// a; leaving, f > 0 there): the GPU's `inclusion_next` and
+/// `inclusion_update` turns. From either side the step and the proven
+/// root are those of the field's sign at x, so only the test of x swaps.
+#[allow(clippy::too_many_arguments)]
+fn refine_inclusion(field: &Field, method: Method, o: DVec3, u: DVec3, a: f64, b: f64, entering: bool, margin: f64, s: MarchSettings) -> f64 {
+    let sign = if entering { 1.0 } else { -1.0 };
     let mut bracket = Bracket::new(a, 0.0, b, 0.0);
     while let Some(x) = bracket.next_inclusion(s.tolerance) {
         let bd = field_bound(field, method, s.quad, o, u, x, bracket.b).expect("an inclusion method");
-        bracket.update_inclusion(x, bd.v, next_root(&bd).min(bd.t_valid - x), proven_crossing(&bd, x));
+        bracket.update_inclusion(x, sign * bd.v, next_root(&bd).min(bd.t_valid - x), proven_crossing(&bd, x, margin));
     }
     bracket.b
 }
