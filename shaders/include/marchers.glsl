@@ -241,9 +241,11 @@ StepEval step_eval(vec3 o, vec3 u, float t0, float t1) {
     float valid = t1 - t0;
     float cross = INFINITY;
     if (TWO_SIDED) {
-        // A transparent march goes on from the proven point: a margin past
-        // the bound's root (field::bound::PROVEN_MARGIN of iso).
-        float r = proven_root(b, SC_TRANSPARENT != 0u ? PROVEN_MARGIN * globals.march.x : 0.0);
+        // A transparent march refines leaving crossings too, from inside,
+        // to a margin past 0 (field::bound::PROVEN_MARGIN of iso); an
+        // opaque one is outside here (f >= 0 was a hit), so it holds only
+        // the lower bound's root (the turn runs every branch it holds).
+        float r = SC_TRANSPARENT != 0u ? proven_root(b, PROVEN_MARGIN * globals.march.x) : lower_root(b);
         if (r <= valid) cross = r;
     }
     return StepEval(b.v, min(SC_TRANSPARENT != 0u || SC_SECONDARY != 0u ? next_root(b) : upper_root(b), valid), cross,
