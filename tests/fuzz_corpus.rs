@@ -15,9 +15,24 @@ fn files(dir: &Path) -> Vec<std::path::PathBuf> {
     files
 }
 
+/// The targets in which the fuzzer found crashes (docs/fuzzing.md's table),
+/// each kept in fuzz/regressions/TARGET/: a folder moved or emptied would
+/// otherwise read as no crash to replay.
+const CRASHES_FOUND: &[&str] = &["gro", "xtc"];
+
 #[test]
 fn every_corpus_input_and_every_crash_found_gives_a_scene_or_one_line_error() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz");
+    for target in CRASHES_FOUND {
+        assert!(
+            !files(&root.join("regressions").join(target)).is_empty(),
+            "fuzz/regressions/{target} is missing or empty: its crash is not replayed"
+        );
+    }
+    for entry in std::fs::read_dir(root.join("regressions")).expect("fuzz/regressions") {
+        let name = entry.unwrap().file_name().into_string().unwrap();
+        assert!(TARGETS.contains(&name.as_str()), "fuzz/regressions/{name} is no fuzz target's: its inputs are not replayed");
+    }
     let mut replayed = 0;
     for target in TARGETS {
         let corpus = files(&root.join("corpus").join(target));
