@@ -195,8 +195,17 @@ fn every_method_renders_a_molecule_and_field_inversion_reports_its_miss_rate() {
         run(&["bench", pdb.to_str().unwrap(), "--methods", "quadratic-taylor,field-inversion", "--rays", "2048", "--json", json.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
-    let text = report.to_string();
-    assert!(text.contains("field-inversion") && text.contains("miss_rate"), "{text}");
+    // Both rows, against the f64 reference on the same rays: quadratic
+    // Taylor (conservative) exactly, field inversion within 1% of misses
+    // and with no false hit (0 and 0 here, measured).
+    let reference = report["reference_hit_rate"].as_f64().expect("a reference hit rate");
+    assert!(reference > 0.3, "the rays hardly see the molecule: reference hit rate {reference}");
+    let rows = report["methods"].as_array().expect("rows");
+    let row = |name: &str| rows.iter().find(|r| r["method"] == name).unwrap_or_else(|| panic!("no {name} row in {report}"));
+    let rate = |name: &str, f: &str| row(name)[f].as_f64().unwrap_or_else(|| panic!("{name}: no {f}"));
+    assert_eq!((rate("quadratic-taylor", "miss_rate"), rate("quadratic-taylor", "false_hit_rate")), (0.0, 0.0));
+    assert_eq!(rate("quadratic-taylor", "hit_rate"), reference);
+    assert!(rate("field-inversion", "miss_rate") <= 0.01 && rate("field-inversion", "false_hit_rate") == 0.0, "{}", row("field-inversion"));
     // A scene that is no sum of like Gaussians: refused in one line.
     let out = run(&[
         "render",
@@ -312,7 +321,11 @@ fn a_molecules_camera_rays_match_the_reference_for_every_conservative_method() {
         } else if method == isomarch::Method::FieldInversion {
             assert!(rate("miss_rate") <= 0.01 && rate("false_hit_rate") == 0.0, "{name}: {row}");
         } else {
-            assert!(rate("miss_rate").is_finite() && rate("false_hit_rate").is_finite(), "{name}: {row}");
+            // dynamol's rule is approximate (docs/molecules.md: on 6WG6 it
+            // misses 2.3% and reports 10.2% false hits); here it missed
+            // 2.8% and reported 14.7% false hits, bounded with room.
+            assert!(rate("miss_rate") <= 0.05 && rate("false_hit_rate") <= 0.25, "{name}: {row}");
+            assert!((rate("hit_rate") - reference).abs() <= 0.05, "{name}: hit rate {} against the reference's {reference}", rate("hit_rate"));
         }
     }
 }
