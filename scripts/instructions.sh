@@ -25,13 +25,8 @@ fi
 command -v valgrind >/dev/null || { echo "instructions.sh: valgrind is missing (apt-get install valgrind)" >&2; exit 1; }
 SCENE=$1
 shift
-METHODS=()
-while [ $# -gt 0 ] && [ "$1" != "--" ]; do METHODS+=("$1"); shift; done
-[ "${1:-}" = "--" ] && shift
-cargo build --release --locked
-B="${CARGO_TARGET_DIR:-$HOME/.cache/isomarch-target}/release/isomarch"
-TMP=$(mktemp -d)
-trap 'rm -rf "$TMP"' EXIT
+source "$(dirname "${BASH_SOURCE[0]}")/measure-args.sh"
+measure_args "$@"
 # The instructions callgrind counted in a run of `render` at SIZE.
 count() {
     local method=$1 size=$2
@@ -43,9 +38,9 @@ count() {
 echo "| method | instructions/ray | steps/ray | turns/ray | evals/ray | instructions/eval |"
 echo "|---|---:|---:|---:|---:|---:|"
 for m in "${METHODS[@]}"; do
-    count "$m" 64x64 "$@" >/dev/null
-    small=$(count "$m" 64x64 "$@")
-    large=$(count "$m" 192x192 "$@")
+    count "$m" 64x64 "${EXTRA[@]}" >/dev/null
+    small=$(count "$m" 64x64 "${EXTRA[@]}")
+    large=$(count "$m" 192x192 "${EXTRA[@]}")
     python3 - "$m" "$small" "$large" "$TMP/s-192x192.json" <<'PY'
 import json, sys
 m, small, large, stats = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), json.load(open(sys.argv[4]))

@@ -18,19 +18,14 @@ if [ $# -lt 4 ]; then
 fi
 N=$1 SIZE=$2 SCENE=$3
 shift 3
-METHODS=()
-while [ $# -gt 0 ] && [ "$1" != "--" ]; do METHODS+=("$1"); shift; done
-[ "${1:-}" = "--" ] && shift
-cargo build --release --locked
-B="${CARGO_TARGET_DIR:-$HOME/.cache/isomarch-target}/release/isomarch"
-TMP=$(mktemp -d)
-trap 'rm -rf "$TMP"' EXIT
+source "$(dirname "${BASH_SOURCE[0]}")/measure-args.sh"
+measure_args "$@"
 ACCELERATIONS=${ACCELERATIONS:-default}
 for i in $(seq 0 "$N"); do
     for m in "${METHODS[@]}"; do
         for a in $ACCELERATIONS; do
             case "$a" in tiles) switch=on ;; grid) switch=off ;; default) switch=on ;; *) echo "ACCELERATIONS: tiles, grid or default, not $a" >&2; exit 2 ;; esac
-            ISOMARCH_TILES=$switch "$B" render "$SCENE" -o "$TMP/f.png" --size "$SIZE" --method "$m" --stats "$TMP/s.json" "$@" >/dev/null 2>"$TMP/err" \
+            ISOMARCH_TILES=$switch "$B" render "$SCENE" -o "$TMP/f.png" --size "$SIZE" --method "$m" --stats "$TMP/s.json" "${EXTRA[@]}" >/dev/null 2>"$TMP/err" \
                 || { cat "$TMP/err" >&2; exit 1; }
             [ "$i" -gt 0 ] && python3 -c "
 import json, sys

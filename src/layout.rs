@@ -285,10 +285,11 @@ pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] = &[
     ("PROVEN_MARGIN", PROVEN_MARGIN),
 ];
 
-/// A transparent march's proven crossings lie this fraction of iso past
-/// the bound's root (`field::bound::proven_root`, the GPU's `proven_root`):
-/// the march goes on from there, so the field's sign at that point must
-/// survive its next evaluation's rounding.
+/// A transparent march's proven points lie this fraction of iso past the
+/// bound's root (`field::bound::proven_root`, the GPU's `proven_root`), so
+/// that a bracket's end is past its crossing beyond the f32 rounding of f.
+/// (It was made for a march that went on from the proven point, a jump
+/// taken out since: docs/refinement.md; the refinement keeps it.)
 pub const PROVEN_MARGIN: f32 = 1e-4;
 
 /// Field inversion's over-relaxation ω (src/field/inversion.rs).

@@ -574,8 +574,8 @@ float lower_root(Bound b) {
 // beyond 0: from outside (f < 0) where the lower bound reaches margin, so
 // f >= margin is proven; from inside (f > 0) where the upper bound falls
 // to -margin (transparent marching). INFINITY where it stays short, and on
-// the surface (f = 0). The margin keeps the sign there certain to the next
-// evaluation's rounding. Mirrors field::bound::proven_root.
+// the surface (f = 0). The margin puts the point past f's rounding
+// (layout.rs, PROVEN_MARGIN). Mirrors field::bound::proven_root.
 float proven_root(Bound b, float margin) {
     if (b.v < 0.0) return first_root(margin - b.v, b.a_lo, b.b_lo);
     if (b.v > 0.0) return first_root(b.v + b.e_hi + margin, -b.a_hi, -b.b_hi);

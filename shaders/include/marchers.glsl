@@ -88,21 +88,18 @@ void begin_refinement(float a, float fa, float b, float fb, bool entering, inout
 // marching cost, so they are not counted.
 //
 // A camera ray of Algorithm 1 (defers_shading) shades the crossings it
-// recorded after its march (shade_crossings): in the loop, a turn in which
-// any ray of a SIMD group crossed ran the normal's fold and the lights for
-// the whole group (on fig1 the change saved 3% of a segment-tracing
-// ray's instructions, 1.5% of quadratic Taylor's). Only the
-// transmittance is tracked here, and crossings past the buffer's
-// MAX_CROSSINGS are shaded here as before. (The any-hit and secondary rays
-// are not camera rays; the bisection baselines refuse transparency.)
+// recorded after its march (shade_crossings), and those past the buffer's
+// MAX_CROSSINGS outside the turn loop (g_pending, shade_pending): lavapipe
+// runs every branch of a turn whether or not a lane takes it, so a normal
+// and its lights in the turn cost every turn of every ray. Only the
+// transmittance is tracked here. (The any-hit and secondary rays are not
+// camera rays; the bisection baselines refuse transparency.)
 // A function: glslang left a constant of these undefined in the SPIR-V.
 bool defers_shading() {
     return SC_TRANSPARENT != 0u && SC_SHADE != 0u && SC_SECONDARY == 0u && SC_ANY_HIT == 0u;
 }
 
-//
-// lavapipe runs every branch of a turn whether or not a lane takes it, so
-// the turn holds one copy of this: the marchers note a crossing
+// For the same reason the turn holds one copy of on_crossing: the marchers note a crossing
 // (note_crossing, at most two a turn) and march.comp records them after
 // the turn (record_crossings). A crossing to shade in the loop waits in
 // g_pending until march.comp leaves the turn loop for it (shade_pending).

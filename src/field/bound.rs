@@ -122,9 +122,8 @@ pub fn lower_root(b: &Bound) -> f64 {
 /// reaches `margin`, so the field is proven >= margin; from inside (`v >
 /// 0`) where the upper bound falls to `-margin` (transparent marching).
 /// Infinite where that bound stays short of it, and on the surface (`v =
-/// 0`). The margin makes the field's sign there certain to its next
-/// evaluation, whose rounding could otherwise undo a root of the bound
-/// itself. The GPU's `proven_root`.
+/// 0`). The margin puts the point past the field's rounding
+/// (`layout::PROVEN_MARGIN`). The GPU's `proven_root`.
 pub fn proven_root(b: &Bound, margin: f64) -> f64 {
     if b.v < 0.0 {
         first_root(margin - b.v, b.a_lo, b.b_lo)

@@ -124,7 +124,9 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
                 if len > 0.0 {
                     r.kept += (b.t_valid - t) / len;
                 }
-                if two_sided {
+                // Opaque marches bracket at the proven root (below); a
+                // transparent one's refinement alone takes it.
+                if two_sided && !s.transparent {
                     cross = proven_crossing(&b, t, margin);
                 }
                 // Up to where the bound is valid (Section 4.2).
@@ -158,10 +160,10 @@ pub fn march(field: &Field, method: Method, o: DVec3, u: DVec3, t0: f64, t1: f64
             }
             inside = !inside;
         }
-        if cross < f64::INFINITY && !s.transparent {
+        if cross < f64::INFINITY {
             // f < 0 up to the upper bound's root, f >= 0 at the lower one's.
-            // (A transparent march steps on: the stretch to the proven point
-            // may hold more crossings, which a jump there would miss.)
+            // (Opaque only: a transparent march steps on, since the stretch
+            // to the proven point may hold more crossings.)
             let (a, b) = ((t + step).min(t + cross), t + cross);
             let tc = if s.refine == Refinement::Inclusion { bounded(a, b, true) } else { refine_past(&at, a, 0.0, b, 0.0, true, s) };
             r.hit = Some(tc);
