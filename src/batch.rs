@@ -326,8 +326,7 @@ pub fn run(
     bar.set_message(format!("shard {}/{}", shard.index, shard.count));
     // Coordinates centred on the camera, frame by frame (f32 precision).
     let still = job.scene.recentred_on_camera();
-    let mut renderer = Renderer::for_camera(ctx, &still)?;
-    renderer.timeout = job.timeout;
+    let mut renderer = Renderer::for_camera(ctx, &still, job.timeout)?;
     let animated = !job.scene.animation.is_static();
     let mut frames = match trajectory {
         Some(stager) => {

@@ -26,6 +26,9 @@ use crate::stats::{median, range};
 /// docs/benchmark-protocol.md: 1,048,576 rays unless told otherwise.
 pub const DEFAULT_RAYS: usize = 1 << 20;
 pub const DEFAULT_SEED: u64 = 20230601;
+/// A smaller ray set, for a sweep (`tradeoff`) or an interactive
+/// comparison (the Python package's `bench`).
+pub const SAMPLE_RAYS: usize = 16_384;
 /// `bench --any-hit` on a scene without shadows or occlusion: occlusion
 /// rays per hit (and shadows).
 pub const DEFAULT_AO_SAMPLES: u32 = 8;
@@ -351,8 +354,7 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, plan: &Plan, timeout: std::time::D
         setup.reference_occluded = reference.iter().filter(|c| !c.is_empty()).count() as f64 / ray_set.len() as f64;
     }
     let options = |variant: Variant| if any_hit { light::any_hit_options(variant.options(scene)) } else { variant.options(scene) };
-    let mut renderer = Renderer::new(ctx, scene)?;
-    renderer.timeout = timeout;
+    let mut renderer = Renderer::with_timeout(ctx, scene, timeout)?;
     let default = variants.first().copied().unwrap_or(Variant { cull: true, quad: scene.marching.quad, generic: false });
     let mut rows: Vec<(Method, Variant)> = Vec::new();
     for &method in methods {

@@ -10,6 +10,7 @@
 
 pub mod batch;
 pub mod bench;
+pub mod checks;
 pub mod field;
 pub mod generate;
 pub mod gpu;
@@ -17,6 +18,7 @@ pub mod inputs;
 pub mod layout;
 pub mod method;
 pub mod molecule;
+pub mod open;
 pub mod output;
 pub mod render;
 pub mod scaling;

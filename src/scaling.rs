@@ -281,8 +281,7 @@ fn prepare(ctx: &Arc<Context>, sweep: &Sweep, count: usize, timeout: Duration, s
         progress.inc(chunk.len() as u64);
     }
     progress.set_message(format!("{count} blobs: index, pipelines"));
-    let mut renderer = Renderer::new(ctx, &scene)?;
-    renderer.timeout = timeout;
+    let mut renderer = Renderer::with_timeout(ctx, &scene, timeout)?;
     let warm = &rays[..rays.len().min(WARM_UP_RAYS)];
     for &method in &sweep.methods {
         renderer.march(method, MarchOptions { shade: false, ..MarchOptions::for_scene(&scene) }, warm, |_| {})?;

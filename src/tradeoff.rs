@@ -39,8 +39,8 @@ impl Sweep {
             methods,
             min_steps: vec![1e-4, 1e-3, 1e-2, 0.1, 1.0],
             max_steps: vec![8, 32, 128, 1000, 10_000],
-            rays: 16_384,
-            seed: 20230601,
+            rays: crate::bench::SAMPLE_RAYS,
+            seed: crate::bench::DEFAULT_SEED,
             any_hit: false,
         }
     }
@@ -74,7 +74,7 @@ impl Sweep {
 
     /// A few settings on few rays, for CI.
     pub fn quick(methods: Vec<Method>) -> Sweep {
-        Sweep { methods, min_steps: vec![0.01, 0.1], max_steps: vec![32, 1000], rays: 1024, seed: 20230601, any_hit: false }
+        Sweep { methods, min_steps: vec![0.01, 0.1], max_steps: vec![32, 1000], rays: 1024, seed: crate::bench::DEFAULT_SEED, any_hit: false }
     }
 }
 
@@ -123,8 +123,7 @@ pub fn run(ctx: &Arc<Context>, scene: &Scene, sweep: &Sweep, timeout: std::time:
     }
     let reference = reference_crossings(scene, &rays, !transparent, false);
     let size = scene.bounds.diagonal();
-    let mut renderer = Renderer::new(ctx, scene)?;
-    renderer.timeout = timeout;
+    let mut renderer = Renderer::with_timeout(ctx, scene, timeout)?;
     let mut points = Vec::new();
     for &method in &sweep.methods {
         for &min_step in &sweep.min_steps {

@@ -15,18 +15,45 @@ prints. The GPU works with the interpreter released.
 
 from __future__ import annotations
 
-import json
-import os
-from typing import Optional, Sequence, Tuple, Union
+import json as _json
+import os as _os
+from typing import TYPE_CHECKING
 
-import numpy as np
+import numpy as _np
 
 from . import _native
-from ._native import IsomarchError
+from ._native import DEFAULT_SEED, IsomarchError, MoleculeOptions, __version__
 
-__all__ = ["Scene", "Trajectory", "Renderer", "Image", "IsomarchError", "element_radius", "element_color", "to_dataframe"]
+if TYPE_CHECKING:  # names for the annotations only: not in the module
+    import os
+    from typing import Optional, Sequence, Tuple, Union
 
-PathLike = Union[str, "os.PathLike[str]"]
+    PathLike = Union[str, "os.PathLike[str]"]
+
+__all__ = [
+    "Scene",
+    "Trajectory",
+    "Renderer",
+    "Image",
+    "MoleculeOptions",
+    "IsomarchError",
+    "DEFAULT_SEED",
+    "element_radius",
+    "element_color",
+    "to_dataframe",
+]
+
+
+def _molecule_options(options: Optional[MoleculeOptions], fields: dict) -> MoleculeOptions:
+    """``options``, or one made of its fields given as keywords
+    (``hydrogens=True``); not both."""
+    if options is None:
+        return MoleculeOptions(**fields)
+    if fields:
+        raise TypeError(f"give options or its fields ({', '.join(sorted(fields))}), not both")
+    if not isinstance(options, MoleculeOptions):
+        raise TypeError(f"options must be an isomarch.MoleculeOptions, got {type(options).__name__}")
+    return options
 
 
 def element_radius(symbol: str) -> Optional[float]:
@@ -57,59 +84,43 @@ class Scene:
         """Reads, parses and validates a scene file (.ron); a molecule file
         (.pdb, .cif, .gro, optionally .gz) is read with the default molecule
         options, as ``isomarch render FILE`` reads either."""
-        native, warnings, summary = _native.scene_load(os.fspath(path))
+        native, warnings, summary = _native.scene_load(_os.fspath(path))
         return Scene(native, warnings, summary)
 
     @staticmethod
-    def from_molecule(
-        path: PathLike,
-        *,
-        hydrogens: bool = False,
-        sharpness: float = 2.0,
-        radius_scale: float = 1.0,
-        iso: float = 1.0,
-        coloring: str = "element",
-        turntable: Optional[float] = None,
-    ) -> "Scene":
+    def from_molecule(path: PathLike, options: Optional[MoleculeOptions] = None, **fields) -> "Scene":
         """The scene of a PDB, mmCIF or GRO file (optionally gzipped): one
         Gaussian blob per atom, as ``isomarch scene`` and ``render`` make it.
 
-        ``coloring`` is ``"element"``, ``"chain"`` or ``"none"``;
-        ``turntable`` is seconds per turn of the camera about the vertical.
+        How: ``options`` (a :class:`MoleculeOptions`), or its fields as
+        keywords: ``hydrogens``, ``sharpness``, ``radius_scale``, ``iso``,
+        ``coloring`` (``"element"``, ``"chain"`` or ``"none"``) and
+        ``turntable`` (seconds per turn of the camera about the vertical);
+        each left out is the command line's default.
         """
-        native, warnings, summary = _native.scene_from_molecule(
-            os.fspath(path), hydrogens, float(sharpness), float(radius_scale), float(iso), coloring, turntable
-        )
+        native, warnings, summary = _native.scene_from_molecule(_os.fspath(path), _molecule_options(options, fields))
         return Scene(native, warnings, summary)
 
     @staticmethod
-    def from_atoms(
-        positions,
-        radii,
-        colors=None,
-        *,
-        sharpness: float = 2.0,
-        radius_scale: float = 1.0,
-        iso: float = 1.0,
-        turntable: Optional[float] = None,
-    ) -> "Scene":
+    def from_atoms(positions, radii, colors=None, options: Optional[MoleculeOptions] = None, **fields) -> "Scene":
         """The scene of atoms given as arrays, as :meth:`from_molecule` makes
         it of a file with the same atoms: ``positions`` (N, 3) in ångström,
         ``radii`` (N,) van der Waals radii in ångström, ``colors`` (N, 3)
         linear RGB or None (one surface colour). Any array-like works: an
         MDAnalysis selection's ``positions``, a gemmi structure's.
+        ``options`` or its fields as keywords, as :meth:`from_molecule`
+        takes them (``hydrogens`` and ``coloring`` do not apply: the atoms
+        are those given, coloured by ``colors``).
         """
-        positions = np.ascontiguousarray(positions, dtype=np.float64)
-        radii = np.ascontiguousarray(radii, dtype=np.float64).reshape(-1)
+        positions = _np.ascontiguousarray(positions, dtype=_np.float64)
+        radii = _np.ascontiguousarray(radii, dtype=_np.float64).reshape(-1)
         if positions.ndim != 2:
             raise IsomarchError(f"positions must have shape (N, 3), got {positions.shape}")
         if colors is not None:
-            colors = np.ascontiguousarray(colors, dtype=np.float64)
+            colors = _np.ascontiguousarray(colors, dtype=_np.float64)
             if colors.ndim != 2:
                 raise IsomarchError(f"colors must have shape (N, 3), got {colors.shape}")
-        native = _native.scene_from_atoms(
-            positions, radii, colors, float(sharpness), float(radius_scale), float(iso), turntable
-        )
+        native = _native.scene_from_atoms(positions, radii, colors, _molecule_options(options, fields))
         return Scene(native)
 
     @property
@@ -148,21 +159,21 @@ class Image:
 
     def __init__(self, raw: dict, width: int, height: int):
         self.width, self.height = width, height
-        self.rgba: np.ndarray = raw["rgba"].reshape(height, width, 4)
-        self.depth: np.ndarray = raw["depth"].reshape(height, width)
-        self.steps: np.ndarray = raw["steps"].reshape(height, width)
-        self.normals: np.ndarray = raw["normals"].reshape(height, width, 3)
+        self.rgba: _np.ndarray = raw["rgba"].reshape(height, width, 4)
+        self.depth: _np.ndarray = raw["depth"].reshape(height, width)
+        self.steps: _np.ndarray = raw["steps"].reshape(height, width)
+        self.normals: _np.ndarray = raw["normals"].reshape(height, width, 3)
         #: Steps, evaluations and times per ray, as ``render --stats`` writes them.
-        self.stats: dict = raw["stats"]
+        self.stats: dict = _json.loads(raw["stats"])
         self.method: str = raw["method"]
         self.device: str = raw["device"]
 
     def __array__(self, dtype=None, copy=None):
         return self.rgba if dtype is None else self.rgba.astype(dtype)
 
-    def to_float(self) -> np.ndarray:
+    def to_float(self) -> _np.ndarray:
         """The image as (H, W, 4) float32 in [0, 1]."""
-        return self.rgba.astype(np.float32) / 255.0
+        return self.rgba.astype(_np.float32) / 255.0
 
     def png(self) -> bytes:
         """PNG bytes, the file ``isomarch render -o x.png`` writes."""
@@ -170,11 +181,11 @@ class Image:
 
     def save(self, path: PathLike) -> None:
         """Writes the PNG to ``path`` (whole, or not at all)."""
-        path = os.fspath(path)
-        tmp = f"{path}.{os.getpid()}.tmp"
+        path = _os.fspath(path)
+        tmp = f"{path}.{_os.getpid()}.tmp"
         with open(tmp, "wb") as f:
             f.write(self.png())
-        os.replace(tmp, path)
+        _os.replace(tmp, path)
 
     def _repr_png_(self) -> bytes:
         return self.png()
@@ -190,7 +201,9 @@ class Trajectory:
 
     Frame ``k`` is the scene ``isomarch scene TOPOLOGY TRAJECTORY --frame k``
     writes, with the camera framed once (``framing="first"``: on the first
-    frame's atoms; ``"all"``: on every frame's). Frames are read when asked
+    frame's atoms; ``"all"``: on every frame's), each frame's atoms made
+    into blobs by ``options`` or its fields as keywords (as
+    :meth:`Scene.from_molecule` takes them). Frames are read when asked
     for, one at a time: ``len(t)``, ``t[k]``, ``for scene in t``.
     """
 
@@ -200,23 +213,14 @@ class Trajectory:
         trajectory: Optional[PathLike] = None,
         *,
         framing: str = "first",
-        hydrogens: bool = False,
-        sharpness: float = 2.0,
-        radius_scale: float = 1.0,
-        iso: float = 1.0,
-        coloring: str = "element",
-        turntable: Optional[float] = None,
+        options: Optional[MoleculeOptions] = None,
+        **fields,
     ):
         self._native, warnings, summary = _native.trajectory_open(
-            os.fspath(topology),
-            None if trajectory is None else os.fspath(trajectory),
+            _os.fspath(topology),
+            None if trajectory is None else _os.fspath(trajectory),
             framing,
-            hydrogens,
-            float(sharpness),
-            float(radius_scale),
-            float(iso),
-            coloring,
-            turntable,
+            _molecule_options(options, fields),
         )
         #: Warnings from reading the topology.
         self.warnings = list(warnings)
@@ -250,11 +254,12 @@ class Renderer:
     """Renders scenes on one Vulkan device, keeping its context between
     calls. ``device`` picks one by index or by a part of its name (as
     ``isomarch --device``); None picks a discrete GPU, then an integrated
-    one, then the CPU driver. ``timeout`` is seconds per frame.
+    one, then the CPU driver. ``timeout`` is seconds per frame (default:
+    the command line's ``--timeout``).
     """
 
-    def __init__(self, device: Optional[str] = None, timeout: float = 600.0):
-        self._native = _native.NativeRenderer(None if device is None else str(device), float(timeout))
+    def __init__(self, device: Optional[str] = None, timeout: Optional[float] = None):
+        self._native = _native.NativeRenderer(None if device is None else str(device), None if timeout is None else float(timeout))
 
     @property
     def device(self) -> str:
@@ -283,14 +288,15 @@ class Renderer:
         self,
         scene: Scene,
         methods: Optional[Sequence[str]] = None,
-        rays: int = 16384,
-        seed: int = 20230601,
+        rays: Optional[int] = None,
+        seed: int = DEFAULT_SEED,
         repeat: int = 1,
         camera: Optional[Tuple[int, int]] = None,
         any_hit: bool = False,
     ) -> dict:
         """``isomarch bench``: each method (default: the scene's) on the
-        same seeded rays of the benchmark protocol (or ``camera=(w, h)``: a
+        same seeded rays of the benchmark protocol (``rays`` of them,
+        default 16,384: fewer than the command line's default; or ``camera=(w, h)``: a
         sample of that frame's pixel rays), against the f64 reference. The
         report as ``bench --json`` writes it; its rows are
         ``report["methods"]`` (:func:`to_dataframe` makes a pandas
@@ -298,24 +304,32 @@ class Renderer:
         occlusion rays cast from the reference's hits instead
         (``bench --any-hit``)."""
         methods = [scene.method] if methods is None else [str(m) for m in methods]
-        return json.loads(self._native.bench(scene._native, methods, int(rays), int(seed), int(repeat), camera, bool(any_hit)))
+        rays = None if rays is None else int(rays)
+        return _json.loads(self._native.bench(scene._native, methods, rays, int(seed), int(repeat), camera, bool(any_hit)))
 
     def tradeoff(
         self,
         scene: Scene,
         methods: Sequence[str] = ("segment", "quadratic-taylor"),
-        min_steps: Sequence[float] = (1e-4, 1e-3, 1e-2, 0.1, 1.0),
-        max_steps: Sequence[int] = (8, 32, 128, 1000, 10_000),
-        rays: int = 16384,
-        seed: int = 20230601,
+        min_steps: Optional[Sequence[float]] = None,
+        max_steps: Optional[Sequence[int]] = None,
+        rays: Optional[int] = None,
+        seed: int = DEFAULT_SEED,
     ) -> list:
         """``isomarch tradeoff``: each method at every minimum step and
         step budget on the same rays, against the f64 reference: a list of
         rows (the rows of ``tradeoff.csv``: time, steps, errors, miss and
-        false-hit rates, Pareto front)."""
-        return json.loads(
+        false-hit rates, Pareto front). The sweep left out is the command
+        line's: minimum steps 1e-4 to 1, step budgets 8 to 10,000, 16,384
+        rays."""
+        return _json.loads(
             self._native.tradeoff(
-                scene._native, [str(m) for m in methods], [float(v) for v in min_steps], [int(v) for v in max_steps], int(rays), int(seed)
+                scene._native,
+                [str(m) for m in methods],
+                None if min_steps is None else [float(v) for v in min_steps],
+                None if max_steps is None else [int(v) for v in max_steps],
+                None if rays is None else int(rays),
+                int(seed),
             )
         )
 

@@ -7,6 +7,30 @@ import numpy as np
 
 class IsomarchError(Exception): ...
 
+__version__: str
+DEFAULT_SEED: int
+
+class MoleculeOptions:
+    """How a molecule becomes a scene; each field left out is the command
+    line's default."""
+
+    hydrogens: bool
+    sharpness: float
+    radius_scale: float
+    iso: float
+    coloring: str
+    turntable: Optional[float]
+    def __init__(
+        self,
+        *,
+        hydrogens: Optional[bool] = None,
+        sharpness: Optional[float] = None,
+        radius_scale: Optional[float] = None,
+        iso: Optional[float] = None,
+        coloring: Optional[str] = None,
+        turntable: Optional[float] = None,
+    ) -> None: ...
+
 class NativeScene:
     primitive_count: int
     resolution: Tuple[int, int]
@@ -20,20 +44,12 @@ class NativeTrajectory:
     def scene(self, k: int) -> Tuple[NativeScene, Optional[float]]: ...
 
 def trajectory_open(
-    topology: str,
-    trajectory: Optional[str],
-    framing: str,
-    hydrogens: bool,
-    sharpness: float,
-    radius_scale: float,
-    iso: float,
-    coloring: str,
-    turntable: Optional[float],
+    topology: str, trajectory: Optional[str], framing: str, options: MoleculeOptions
 ) -> Tuple[NativeTrajectory, list, str]: ...
 
 class NativeRenderer:
     device: str
-    def __init__(self, device: Optional[str] = None, timeout: float = 600.0) -> None: ...
+    def __init__(self, device: Optional[str] = None, timeout: Optional[float] = None) -> None: ...
     def render(
         self, scene: NativeScene, width: int, height: int, method: Optional[str], time: float, samples: Optional[int]
     ) -> dict: ...
@@ -41,28 +57,29 @@ class NativeRenderer:
         self,
         scene: NativeScene,
         methods: list,
-        rays: int,
-        seed: int,
-        repeats: int,
-        camera: Optional[Tuple[int, int]],
-        any_hit: bool,
+        rays: Optional[int] = None,
+        seed: Optional[int] = None,
+        repeats: int = 1,
+        camera: Optional[Tuple[int, int]] = None,
+        any_hit: bool = False,
     ) -> str: ...
     def tradeoff(
-        self, scene: NativeScene, methods: list, min_steps: list, max_steps: list, rays: int, seed: int
+        self,
+        scene: NativeScene,
+        methods: list,
+        min_steps: Optional[list] = None,
+        max_steps: Optional[list] = None,
+        rays: Optional[int] = None,
+        seed: Optional[int] = None,
     ) -> str: ...
 
 def scene_load(path: str) -> Tuple[NativeScene, list, str]: ...
-def scene_from_molecule(
-    path: str, hydrogens: bool, sharpness: float, radius_scale: float, iso: float, coloring: str, turntable: Optional[float]
-) -> Tuple[NativeScene, list, str]: ...
+def scene_from_molecule(path: str, options: MoleculeOptions) -> Tuple[NativeScene, list, str]: ...
 def scene_from_atoms(
     positions: np.ndarray,
     radii: np.ndarray,
     colors: Optional[np.ndarray],
-    sharpness: float,
-    radius_scale: float,
-    iso: float,
-    turntable: Optional[float],
+    options: MoleculeOptions,
 ) -> NativeScene: ...
 def element_radius(symbol: str) -> Optional[float]: ...
 def element_color(symbol: str) -> Tuple[float, float, float]: ...

@@ -12,7 +12,7 @@ use isomarch::Method;
 use isomarch::gpu::{Context, ContextOptions};
 use isomarch::layout::FLAG_HIT;
 use isomarch::molecule::build::{atoms_scene, load_scene};
-use isomarch::molecule::{Coloring, MoleculeOptions, elements};
+use isomarch::molecule::{Coloring, MoleculeChoices, MoleculeOptions, elements};
 use isomarch::render::offscreen::{RenderJob, render_frame_indexed};
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::create_exception;
@@ -56,23 +56,93 @@ impl NativeScene {
     }
 }
 
-fn molecule_options(
-    hydrogens: bool,
-    sharpness: f64,
-    radius_scale: f64,
-    iso: f64,
-    coloring: &str,
-    turntable: Option<f64>,
-) -> PyResult<MoleculeOptions> {
-    let coloring = match coloring {
-        "element" => Coloring::Element,
-        "chain" => Coloring::Chain,
-        "none" => Coloring::None,
-        other => return Err(IsomarchError::new_err(format!("coloring must be \"element\", \"chain\" or \"none\", got {other:?}"))),
-    };
-    let o = MoleculeOptions { hydrogens, sharpness, radius_scale, iso, coloring, turntable };
-    o.check().map_err(raise)?;
-    Ok(o)
+/// A value of one of the command line's choices, named by a str
+/// (`coloring="chain"`, `framing="all"`): the same names, and for any
+/// other one line that lists them.
+struct Choice<T>(T);
+
+impl<'a, 'py, T: clap::ValueEnum> FromPyObject<'a, 'py> for Choice<T> {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        let name: String = obj.extract()?;
+        T::from_str(&name, false).map(Choice).map_err(|_| {
+            let names: Vec<String> =
+                T::value_variants().iter().filter_map(|v| v.to_possible_value()).map(|v| format!("\"{}\"", v.get_name())).collect();
+            IsomarchError::new_err(format!("expected one of {}, got {name:?}", names.join(", ")))
+        })
+    }
+}
+
+/// How a molecule becomes a scene (`isomarch.MoleculeOptions`): made once,
+/// keyword by keyword, each field left out taking the command line's
+/// default (`MoleculeOptions::default`), and checked as the command line
+/// checks it.
+#[pyclass(name = "MoleculeOptions", module = "isomarch._native", frozen)]
+struct NativeMoleculeOptions {
+    options: MoleculeOptions,
+}
+
+#[pymethods]
+impl NativeMoleculeOptions {
+    #[new]
+    #[pyo3(signature = (*, hydrogens=None, sharpness=None, radius_scale=None, iso=None, coloring=None, turntable=None))]
+    fn new(
+        hydrogens: Option<bool>,
+        sharpness: Option<f64>,
+        radius_scale: Option<f64>,
+        iso: Option<f64>,
+        coloring: Option<Choice<Coloring>>,
+        turntable: Option<f64>,
+    ) -> PyResult<Self> {
+        let options =
+            MoleculeChoices { hydrogens, sharpness, radius_scale, iso, coloring: coloring.map(|c| c.0), turntable }.options().map_err(raise)?;
+        Ok(NativeMoleculeOptions { options })
+    }
+
+    #[getter]
+    fn hydrogens(&self) -> bool {
+        self.options.hydrogens
+    }
+
+    #[getter]
+    fn sharpness(&self) -> f64 {
+        self.options.sharpness
+    }
+
+    #[getter]
+    fn radius_scale(&self) -> f64 {
+        self.options.radius_scale
+    }
+
+    #[getter]
+    fn iso(&self) -> f64 {
+        self.options.iso
+    }
+
+    #[getter]
+    fn coloring(&self) -> String {
+        use clap::ValueEnum as _;
+        self.options.coloring.to_possible_value().map_or_else(String::new, |v| v.get_name().to_string())
+    }
+
+    #[getter]
+    fn turntable(&self) -> Option<f64> {
+        self.options.turntable
+    }
+
+    fn __repr__(&self) -> String {
+        let o = &self.options;
+        format!(
+            "MoleculeOptions(hydrogens={}, sharpness={}, radius_scale={}, iso={}, coloring={:?}, turntable={})",
+            if o.hydrogens { "True" } else { "False" },
+            o.sharpness,
+            o.radius_scale,
+            o.iso,
+            self.coloring(),
+            o.turntable.map_or("None".to_string(), |t| t.to_string())
+        )
+    }
 }
 
 /// A scene file, or a molecule file with the default molecule options (as
@@ -88,34 +158,20 @@ fn scene_load(py: Python<'_>, path: PathBuf) -> PyResult<(NativeScene, Vec<Strin
 }
 
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
-fn scene_from_molecule(
-    py: Python<'_>,
-    path: PathBuf,
-    hydrogens: bool,
-    sharpness: f64,
-    radius_scale: f64,
-    iso: f64,
-    coloring: &str,
-    turntable: Option<f64>,
-) -> PyResult<(NativeScene, Vec<String>, String)> {
-    let o = molecule_options(hydrogens, sharpness, radius_scale, iso, coloring, turntable)?;
+fn scene_from_molecule(py: Python<'_>, path: PathBuf, options: &NativeMoleculeOptions) -> PyResult<(NativeScene, Vec<String>, String)> {
+    let o = options.options;
     let (scene, notes) = py.detach(|| load_scene(&path, &o)).map_err(raise)?;
     Ok((NativeScene { scene }, notes.warnings, notes.summary))
 }
 
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
 fn scene_from_atoms(
     positions: PyReadonlyArray2<'_, f64>,
     radii: PyReadonlyArray1<'_, f64>,
     colors: Option<PyReadonlyArray2<'_, f64>>,
-    sharpness: f64,
-    radius_scale: f64,
-    iso: f64,
-    turntable: Option<f64>,
+    options: &NativeMoleculeOptions,
 ) -> PyResult<NativeScene> {
-    let o = molecule_options(false, sharpness, radius_scale, iso, "element", turntable)?;
+    let o = options.options;
     let p = positions.as_array();
     if p.ncols() != 3 {
         return Err(IsomarchError::new_err(format!("positions must have shape (N, 3), got {:?}", p.shape())));
@@ -168,7 +224,7 @@ fn parse_methods(names: &[String]) -> PyResult<Vec<Method>> {
     if names.is_empty() {
         return Err(IsomarchError::new_err("no method given"));
     }
-    names.iter().map(|m| m.parse::<Method>().map_err(|e| IsomarchError::new_err(format!("invalid method {m:?}: {e}")))).collect()
+    names.iter().map(|m| isomarch::checks::method(m).map_err(raise)).collect()
 }
 
 /// A Vulkan context kept between renders.
@@ -181,13 +237,11 @@ struct NativeRenderer {
 #[pymethods]
 impl NativeRenderer {
     #[new]
-    #[pyo3(signature = (device=None, timeout=600.0))]
-    fn new(py: Python<'_>, device: Option<String>, timeout: f64) -> PyResult<Self> {
-        if !(timeout.is_finite() && timeout > 0.0) {
-            return Err(IsomarchError::new_err(format!("--timeout must be a positive number of seconds, got {timeout}")));
-        }
+    #[pyo3(signature = (device=None, timeout=None))]
+    fn new(py: Python<'_>, device: Option<String>, timeout: Option<f64>) -> PyResult<Self> {
+        let timeout = timeout.map_or(Ok(isomarch::render::DEFAULT_TIMEOUT), isomarch::checks::timeout).map_err(raise)?;
         let ctx = py.detach(|| Context::new(&ContextOptions { validation: false, device, present: None })).map_err(raise)?;
-        Ok(NativeRenderer { ctx, timeout: Duration::from_secs_f64(timeout) })
+        Ok(NativeRenderer { ctx, timeout })
     }
 
     #[getter]
@@ -209,20 +263,15 @@ impl NativeRenderer {
         time: f64,
         samples: Option<u32>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        if !(1..=16384).contains(&width) || !(1..=16384).contains(&height) {
-            return Err(IsomarchError::new_err(format!("expected a size with each side in 1..=16384, got {width}x{height}")));
-        }
-        if !time.is_finite() {
-            return Err(IsomarchError::new_err(format!("--time must be a finite number of seconds, got {time}")));
-        }
-        let mut posed = scene.scene.at_time(time);
+        isomarch::checks::size(width, height).map_err(raise)?;
+        let mut posed = scene.scene.at_time(isomarch::checks::time(time).map_err(raise)?);
         if let Some(m) = method {
-            posed.marching.method = m.parse::<Method>().map_err(|e| IsomarchError::new_err(format!("invalid method {m:?}: {e}")))?;
+            posed.marching.method = isomarch::checks::method(m).map_err(raise)?;
         }
         let method = posed.marching.method;
         let mut job = RenderJob::new(posed, method, (width, height), PathBuf::new(), self.timeout);
         if let Some(n) = samples {
-            job.samples = isomarch::render::offscreen::check_samples(n).map_err(raise)?;
+            job.samples = isomarch::checks::samples(n).map_err(raise)?;
         }
         let ctx = Arc::clone(&self.ctx);
         let isomarch::render::offscreen::FrameReport { frame, march: stats, .. } =
@@ -242,33 +291,8 @@ impl NativeRenderer {
         out.set_item("normals", PyArray1::from_vec(py, normals))?;
         out.set_item("method", method.to_string())?;
         out.set_item("device", self.ctx.info.name.clone())?;
-        let s = PyDict::new(py);
-        s.set_item("rays", stats.rays)?;
-        s.set_item("hit_rate", stats.hit_rate)?;
-        s.set_item("steps_per_ray", stats.steps_per_ray)?;
-        s.set_item("evals_per_ray", stats.evals_per_ray)?;
-        s.set_item("refine_per_ray", stats.refine_per_ray)?;
-        s.set_item("turns_per_ray", stats.turns_per_ray)?;
-        s.set_item("visits_per_ray", stats.visits_per_ray)?;
-        s.set_item("out_of_steps_rate", stats.out_of_steps_rate)?;
-        s.set_item("max_steps_taken", stats.max_steps_taken)?;
-        s.set_item("gpu_ms", stats.gpu_ms)?;
-        s.set_item("ns_per_ray", stats.ns_per_ray)?;
-        // The shadow and occlusion rays, as `render --stats` writes them.
-        let any_hit = match stats.any_hit {
-            Some(a) => {
-                let d = PyDict::new(py);
-                d.set_item("shadow_rays", a.shadow_rays)?;
-                d.set_item("shadow_steps_per_ray", a.shadow_steps_per_ray)?;
-                d.set_item("ao_rays", a.ao_rays)?;
-                d.set_item("ao_steps_per_ray", a.ao_steps_per_ray)?;
-                d.set_item("gpu_ms", a.gpu_ms)?;
-                Some(d)
-            }
-            None => None,
-        };
-        s.set_item("any_hit", any_hit)?;
-        out.set_item("stats", s)?;
+        // As `render --stats` writes them (the march's part of its JSON).
+        out.set_item("stats", serde_json::to_string(&stats).map_err(raise)?)?;
         Ok(out)
     }
 
@@ -276,18 +300,20 @@ impl NativeRenderer {
     /// pixel rays), every method against the f64 reference; the report as
     /// the JSON `bench --json` writes.
     #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (scene, methods, rays=None, seed=None, repeats=1, camera=None, any_hit=false))]
     fn bench(
         &self,
         py: Python<'_>,
         scene: &NativeScene,
         methods: Vec<String>,
-        rays: usize,
-        seed: u64,
+        rays: Option<usize>,
+        seed: Option<u64>,
         repeats: usize,
         camera: Option<(u32, u32)>,
         any_hit: bool,
     ) -> PyResult<String> {
         let methods = parse_methods(&methods)?;
+        let (rays, seed) = (rays.unwrap_or(isomarch::bench::SAMPLE_RAYS), seed.unwrap_or(isomarch::bench::DEFAULT_SEED));
         let posed = scene.scene.at_time(0.0);
         let variants = [isomarch::bench::Variant { cull: true, quad: posed.marching.quad, generic: false }];
         isomarch::bench::Plan { methods: &methods, variants: &variants, rays, seed, repeats, camera, any_hit }.check().map_err(raise)?;
@@ -303,18 +329,27 @@ impl NativeRenderer {
 
     /// `isomarch tradeoff`: every method at every minimum step and step
     /// budget on the same rays; the points (rows of tradeoff.csv) as JSON.
+    /// Arguments left out are `Sweep::full`'s (the command line's).
     #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (scene, methods, min_steps=None, max_steps=None, rays=None, seed=None))]
     fn tradeoff(
         &self,
         py: Python<'_>,
         scene: &NativeScene,
         methods: Vec<String>,
-        min_steps: Vec<f64>,
-        max_steps: Vec<u32>,
-        rays: usize,
-        seed: u64,
+        min_steps: Option<Vec<f64>>,
+        max_steps: Option<Vec<u32>>,
+        rays: Option<usize>,
+        seed: Option<u64>,
     ) -> PyResult<String> {
-        let sweep = isomarch::tradeoff::Sweep { methods: parse_methods(&methods)?, min_steps, max_steps, rays, seed, any_hit: false };
+        let full = isomarch::tradeoff::Sweep::full(parse_methods(&methods)?);
+        let sweep = isomarch::tradeoff::Sweep {
+            min_steps: min_steps.unwrap_or(full.min_steps),
+            max_steps: max_steps.unwrap_or(full.max_steps),
+            rays: rays.unwrap_or(full.rays),
+            seed: seed.unwrap_or(full.seed),
+            ..full
+        };
         sweep.check().map_err(raise)?;
         let posed = scene.scene.at_time(0.0);
         let (ctx, timeout) = (Arc::clone(&self.ctx), self.timeout);
@@ -350,27 +385,16 @@ impl NativeTrajectory {
 }
 
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (topology, trajectory, framing, hydrogens, sharpness, radius_scale, iso, coloring, turntable))]
+#[pyo3(signature = (topology, trajectory, framing, options))]
 fn trajectory_open(
     py: Python<'_>,
     topology: PathBuf,
     trajectory: Option<PathBuf>,
-    framing: &str,
-    hydrogens: bool,
-    sharpness: f64,
-    radius_scale: f64,
-    iso: f64,
-    coloring: &str,
-    turntable: Option<f64>,
+    framing: Choice<isomarch::molecule::playback::FramingRule>,
+    options: &NativeMoleculeOptions,
 ) -> PyResult<(NativeTrajectory, Vec<String>, String)> {
-    use isomarch::molecule::playback::{FramingRule, Stager};
-    let o = molecule_options(hydrogens, sharpness, radius_scale, iso, coloring, turntable)?;
-    let rule = match framing {
-        "first" => FramingRule::First,
-        "all" => FramingRule::All,
-        other => return Err(IsomarchError::new_err(format!("framing must be \"first\" or \"all\", got {other:?}"))),
-    };
+    use isomarch::molecule::playback::Stager;
+    let (o, rule) = (options.options, framing.0);
     let (stager, notes) = py
         .detach(|| -> anyhow::Result<_> {
             let t = isomarch::molecule::trajectory::open(&topology, trajectory.as_deref())?;
@@ -386,6 +410,9 @@ fn trajectory_open(
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("IsomarchError", m.py().get_type::<IsomarchError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("DEFAULT_SEED", isomarch::bench::DEFAULT_SEED)?;
+    m.add_class::<NativeMoleculeOptions>()?;
     m.add_class::<NativeScene>()?;
     m.add_class::<NativeRenderer>()?;
     m.add_class::<NativeTrajectory>()?;

@@ -75,6 +75,57 @@ impl Default for MoleculeOptions {
     }
 }
 
+/// Molecule options as a user gives them (the command line's flags,
+/// Python's keywords): each one left out takes its default.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MoleculeChoices {
+    pub hydrogens: Option<bool>,
+    pub sharpness: Option<f64>,
+    pub radius_scale: Option<f64>,
+    pub iso: Option<f64>,
+    pub coloring: Option<Coloring>,
+    pub turntable: Option<f64>,
+}
+
+impl MoleculeChoices {
+    /// The options, the default where a choice was left out (not checked:
+    /// [`MoleculeOptions::check`]).
+    pub fn resolve(&self) -> MoleculeOptions {
+        let d = MoleculeOptions::default();
+        MoleculeOptions {
+            hydrogens: self.hydrogens.unwrap_or(d.hydrogens),
+            sharpness: self.sharpness.unwrap_or(d.sharpness),
+            radius_scale: self.radius_scale.unwrap_or(d.radius_scale),
+            iso: self.iso.unwrap_or(d.iso),
+            coloring: self.coloring.unwrap_or(d.coloring),
+            turntable: self.turntable.or(d.turntable),
+        }
+    }
+
+    /// The options, checked.
+    pub fn options(&self) -> Result<MoleculeOptions> {
+        let o = self.resolve();
+        o.check()?;
+        Ok(o)
+    }
+
+    /// The command-line flags of the choices made (`hydrogens: Some(false)`
+    /// counts as made).
+    pub fn flags(&self) -> Vec<&'static str> {
+        [
+            (self.hydrogens.is_some(), "--hydrogens"),
+            (self.sharpness.is_some(), "--sharpness"),
+            (self.radius_scale.is_some(), "--radius-scale"),
+            (self.iso.is_some(), "--iso"),
+            (self.coloring.is_some(), "--color"),
+            (self.turntable.is_some(), "--turntable"),
+        ]
+        .into_iter()
+        .filter_map(|(given, flag)| given.then_some(flag))
+        .collect()
+    }
+}
+
 impl MoleculeOptions {
     /// One-line errors for values out of range.
     pub fn check(&self) -> Result<()> {

@@ -28,7 +28,7 @@ use std::path::Path;
 
 use glam::DVec3;
 
-pub use build::{Coloring, MoleculeOptions};
+pub use build::{Coloring, MoleculeChoices, MoleculeOptions};
 
 /// One atom as read: its element symbol as written in the periodic table
 /// (`C`, `Se`, `Zn`; an unrecognised symbol as found, upper case), its

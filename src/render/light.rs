@@ -126,6 +126,17 @@ pub fn wanted(scene: &Scene, options: &MarchOptions) -> bool {
     (scene.shadows || scene.ao.is_some()) && options.shade && scene.transparency.is_none()
 }
 
+/// Refuses `method` where `scene` asks for shadows or ambient occlusion
+/// and the method cannot march their rays (the bisection baselines find
+/// an entering crossing only, and these rays start on a surface): the
+/// commands call it before any GPU work, and [`apply`] again.
+pub fn check_method(scene: &Scene, method: Method) -> Result<()> {
+    if (scene.shadows || scene.ao.is_some()) && scene.transparency.is_none() && matches!(method, Method::LinearBisection | Method::Raa) {
+        bail!("{method} cannot march shadow and occlusion rays (they start on a surface); use an Algorithm 1 method");
+    }
+    Ok(())
+}
+
 /// The march options of any-hit rays cast by a march with `options`.
 pub fn any_hit_options(options: MarchOptions) -> MarchOptions {
     MarchOptions { transparent: false, secondary: false, any_hit: true, shade: false, ..options }
@@ -207,9 +218,7 @@ pub fn apply(renderer: &mut Renderer, method: Method, options: MarchOptions, ray
     if !wanted(&scene, &options) {
         return Ok(LightStats::default());
     }
-    if matches!(method, Method::LinearBisection | Method::Raa) {
-        bail!("{method} cannot march shadow and occlusion rays (they start on a surface); use an Algorithm 1 method");
-    }
+    check_method(&scene, method)?;
     let normal = |r: &GpuResult| DVec3::new(r.hit[0].into(), r.hit[1].into(), r.hit[2].into());
     let hits: Vec<Option<(f64, DVec3)>> =
         out.results.iter().map(|r| (r.counts[3] & FLAG_HIT != 0).then(|| (f64::from(r.hit[3]), normal(r)))).collect();

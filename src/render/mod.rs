@@ -287,9 +287,13 @@ pub struct Renderer {
     defer_index: bool,
     /// The index holds the primitives as uploaded.
     index_fresh: bool,
-    /// Give up when the GPU is not done by then.
-    pub timeout: Duration,
+    /// Give up when the GPU is not done by then (given when it is made).
+    timeout: Duration,
 }
+
+/// How long a renderer's GPU work may take unless its maker says
+/// ([`Renderer::with_timeout`], [`Renderer::for_camera`]).
+pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(600);
 
 /// The switches the environment may turn off to measure what they buy.
 pub const ENV_SWITCHES: [&str; 3] = ["ISOMARCH_INDEX", "ISOMARCH_BRACKET", "ISOMARCH_TILES"];
@@ -486,22 +490,30 @@ impl Renderer {
     /// primitives (unless the environment sets `ISOMARCH_INDEX=off`, to
     /// measure what the index buys). Fails with a one-line error when it
     /// does not fit.
+    /// The GPU gives up after [`DEFAULT_TIMEOUT`].
     pub fn new(ctx: &Arc<Context>, scene: &Scene) -> Result<Renderer> {
+        Renderer::with_timeout(ctx, scene, DEFAULT_TIMEOUT)
+    }
+
+    /// [`Renderer::new`] whose GPU work gives up after `timeout`.
+    pub fn with_timeout(ctx: &Arc<Context>, scene: &Scene, timeout: Duration) -> Result<Renderer> {
         let indexed = env_switch("ISOMARCH_INDEX").unwrap_or(true);
-        Renderer::with_index(ctx, scene, indexed)
+        let mut renderer = Renderer::with_index_deferred(ctx, scene, indexed, timeout)?;
+        renderer.ensure_index()?;
+        Ok(renderer)
     }
 
     /// [`Renderer::new`] with the spatial index or without it (every
     /// primitive in every step, as far as the loop budget allows).
     pub fn with_index(ctx: &Arc<Context>, scene: &Scene, indexed: bool) -> Result<Renderer> {
-        let mut renderer = Renderer::with_index_deferred(ctx, scene, indexed)?;
+        let mut renderer = Renderer::with_index_deferred(ctx, scene, indexed, DEFAULT_TIMEOUT)?;
         renderer.ensure_index()?;
         Ok(renderer)
     }
 
     /// [`Renderer::with_index`] without building the index (nor sizing a
     /// flat march's slices: [`Renderer::ensure_index`] does both).
-    fn with_index_deferred(ctx: &Arc<Context>, scene: &Scene, indexed: bool) -> Result<Renderer> {
+    fn with_index_deferred(ctx: &Arc<Context>, scene: &Scene, indexed: bool, timeout: Duration) -> Result<Renderer> {
         let limit = ctx.info.max_storage_buffer_range / size_of::<GpuPrimitive>() as u64;
         if scene.primitive_count() as u64 > limit {
             bail!(
@@ -558,7 +570,7 @@ impl Renderer {
             index_fresh: false,
             ctx: Arc::clone(ctx),
             scene: scene.clone(),
-            timeout: Duration::from_secs(600),
+            timeout,
         };
         Ok(renderer)
     }
@@ -567,9 +579,9 @@ impl Renderer {
     /// built when a march needs it, not when the camera's tile lists serve
     /// every ray of the frame (no shadows, occlusion or secondary rays),
     /// and then again only after the scene moved.
-    pub fn for_camera(ctx: &Arc<Context>, scene: &Scene) -> Result<Renderer> {
+    pub fn for_camera(ctx: &Arc<Context>, scene: &Scene, timeout: Duration) -> Result<Renderer> {
         let indexed = env_switch("ISOMARCH_INDEX").unwrap_or(true);
-        let mut renderer = Renderer::with_index_deferred(ctx, scene, indexed)?;
+        let mut renderer = Renderer::with_index_deferred(ctx, scene, indexed, timeout)?;
         // Only scenes the lists may serve wait for a march to need the index.
         renderer.defer_index = scene.bracket_holds();
         if !renderer.defer_index {

@@ -166,8 +166,7 @@ pub struct FrameReport {
 /// [`render_frame`], with the rest of a [`FrameReport`].
 pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<FrameReport> {
     let scene = job.scene.recentred_on_camera();
-    let mut renderer = Renderer::for_camera(ctx, &scene)?;
-    renderer.timeout = job.timeout;
+    let mut renderer = Renderer::for_camera(ctx, &scene, job.timeout)?;
     let options = MarchOptions::for_scene(&scene);
     let tiled = renderer.prepare_camera(job.method, &options, &scene.camera, job.width, job.height)?;
     let (frame, march) = march_image(&mut renderer, job.method, options, &scene, (job.width, job.height), job.samples)?;

@@ -1,0 +1,206 @@
+//! The flags that several commands share, each group one struct that
+//! turns itself into the library's values: the molecule options, a
+//! trajectory's frame and framing, the device, and the marching overrides.
+
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Result;
+use clap::Args;
+
+use isomarch::checks;
+use isomarch::gpu::{Context, ContextOptions};
+use isomarch::method::Method;
+use isomarch::molecule::playback::FramingRule;
+use isomarch::molecule::{MoleculeChoices, MoleculeOptions};
+use isomarch::open::{Adjust, Input, Source};
+use isomarch::scene::Scene;
+
+/// How a molecule file becomes a scene (docs/molecules.md). These apply
+/// to molecule files only (.pdb, .ent, .cif, .mmcif, .gro, each optionally
+/// .gz); a scene file given with one is refused.
+#[derive(Args)]
+pub struct MoleculeArgs {
+    /// Keep hydrogen atoms (left out by default).
+    #[arg(long)]
+    pub hydrogens: bool,
+    /// Sharpness s of each atom's Gaussian e^(-s d^2/r^2) [default: 2].
+    #[arg(long, value_name = "S")]
+    pub sharpness: Option<f64>,
+    /// Factor on the van der Waals radii (Bondi 1964) [default: 1].
+    #[arg(long, value_name = "K")]
+    pub radius_scale: Option<f64>,
+    /// Iso value; with each atom's weight e^s, 1 puts a lone atom's
+    /// surface at its radius, more shrinks the surface [default: 1].
+    #[arg(long)]
+    pub iso: Option<f64>,
+    /// Colour atoms by element (Jmol CPK colours), by chain, or not at all [default: element].
+    #[arg(long, value_enum)]
+    pub color: Option<isomarch::molecule::Coloring>,
+    /// Turntable: the camera circles the molecule once per SECONDS of
+    /// scene time (the viewer plays it; `render --frames` renders it).
+    #[arg(long, value_name = "SECONDS")]
+    pub turntable: Option<f64>,
+}
+
+impl MoleculeArgs {
+    /// The choices made: `--hydrogens` absent is no choice.
+    fn choices(&self) -> MoleculeChoices {
+        MoleculeChoices {
+            hydrogens: self.hydrogens.then_some(true),
+            sharpness: self.sharpness,
+            radius_scale: self.radius_scale,
+            iso: self.iso,
+            coloring: self.color,
+            turntable: self.turntable,
+        }
+    }
+
+    /// The options, defaults where not given (checked where they are used).
+    pub fn options(&self) -> MoleculeOptions {
+        self.choices().resolve()
+    }
+
+    /// The input files of a command, read with these options, `play`'s
+    /// frame and framing.
+    pub fn source<'a>(&self, path: &'a Path, trajectory: Option<&'a Path>, play: &PlayArgs) -> Source<'a> {
+        Source { path, trajectory, molecule: self.options(), molecule_flags: self.choices().flags(), frame: play.frame, framing: play.framing }
+    }
+}
+
+/// The flags of a trajectory (or a file of several models).
+#[derive(Args)]
+pub struct PlayArgs {
+    /// The frame to render, benchmark or write, of a trajectory or a
+    /// multi-model file [default: 0].
+    #[arg(long, value_name = "N")]
+    pub frame: Option<usize>,
+    /// Where a trajectory's camera looks, for every frame: at the first
+    /// frame's atoms, or at every frame's (one pass over the trajectory first).
+    #[arg(long, value_enum, default_value_t)]
+    pub framing: FramingRule,
+}
+
+/// The device flags of every command that uses the GPU.
+#[derive(Args)]
+pub struct GpuArgs {
+    /// Vulkan device: index or name substring from `isomarch info` (default: discrete, then integrated, then CPU).
+    #[arg(long)]
+    pub device: Option<String>,
+    /// Give up when the GPU has not finished within this many seconds.
+    #[arg(long, default_value_t = 600.0, value_name = "SECONDS")]
+    pub timeout: f64,
+    /// Enable the Vulkan validation layer (also ISOMARCH_VALIDATION=1).
+    #[arg(long)]
+    pub validation: bool,
+}
+
+/// A command's device, opened without a window, and its `--timeout`.
+pub struct Session {
+    pub ctx: Arc<Context>,
+    pub timeout: Duration,
+}
+
+impl GpuArgs {
+    /// `--timeout`, checked.
+    pub fn timeout(&self) -> Result<Duration> {
+        checks::timeout(self.timeout)
+    }
+
+    /// Opens the device for a command that renders offscreen; end with
+    /// [`finish`].
+    pub fn open(&self) -> Result<Session> {
+        let timeout = self.timeout()?;
+        let ctx = Context::new(&ContextOptions { validation: self.validation, device: self.device.clone(), present: None })?;
+        Ok(Session { ctx, timeout })
+    }
+}
+
+/// The marching flags of `render`, `view` and `bench`: overrides of the
+/// scene file's `marching` section.
+#[derive(Args, Clone)]
+pub struct MarchArgs {
+    /// Marcher (default: the scene's marching.method).
+    #[arg(long, value_enum)]
+    pub method: Option<Method>,
+    /// Override the scene's minimum step (scene units).
+    #[arg(long)]
+    pub min_step: Option<f64>,
+    /// Override the scene's step budget per ray.
+    #[arg(long)]
+    pub max_steps: Option<u32>,
+    /// Interval growth k of Algorithm 1 (next interval = k x last step);
+    /// default: the scene's, else 1.5 for segment, 3 for linear-taylor,
+    /// 2 for the other methods.
+    #[arg(long, value_name = "K")]
+    pub growth: Option<f64>,
+    /// How a crossing is narrowed to the refinement tolerance (default:
+    /// the scene's marching.refine, else inclusion: the inclusion methods
+    /// fold their own bound over the bracket, the others use secant;
+    /// secant and bisection reproduce the figures measured before).
+    #[arg(long, value_enum)]
+    pub refine: Option<isomarch::settings::Refinement>,
+    /// Shadows: from every shaded hit, a ray towards each light, marched
+    /// with the same method until the surface crosses it (opaque scenes).
+    #[arg(long)]
+    pub shadows: bool,
+    /// Ambient occlusion: N cosine-weighted rays over the hemisphere of
+    /// every shaded hit, each looking --ao-distance far (opaque scenes).
+    #[arg(long, value_name = "N")]
+    pub ao: Option<u32>,
+    /// How far occlusion rays look (scene units) [default: the scene's
+    /// ao.distance, else 4 x the smallest primitive radius].
+    #[arg(long, value_name = "D", requires = "ao")]
+    pub ao_distance: Option<f64>,
+    /// March the first crossing only, as if the scene had no
+    /// `transparency` section (so that the opaque-only bisection
+    /// baselines can run on a transparent or refractive scene).
+    #[arg(long)]
+    pub opaque: bool,
+}
+
+impl MarchArgs {
+    /// These overrides, for every scene a command opens.
+    pub fn adjust(&self) -> Adjust {
+        let overrides = self.clone();
+        Arc::new(move |scene| overrides.apply(scene))
+    }
+
+    /// Opens a command's input: `source`'s files with these overrides.
+    pub fn open(&self, source: &Source) -> Result<Input> {
+        source.open(self.adjust())
+    }
+
+    /// Checks the overrides and writes them into `scene`'s marching
+    /// settings.
+    pub fn apply(&self, scene: &mut Scene) -> Result<()> {
+        if let Some(m) = self.method {
+            scene.marching.method = m;
+        }
+        if let Some(s) = self.min_step {
+            scene.marching.min_step = checks::min_step(s)?;
+        }
+        if let Some(n) = self.max_steps {
+            scene.marching.max_steps = checks::max_steps(n)?;
+        }
+        if let Some(k) = self.growth {
+            scene.marching.growth = Some(checks::growth(k)?);
+        }
+        if let Some(r) = self.refine {
+            scene.marching.refine = r;
+        }
+        if self.opaque {
+            scene.transparency = None;
+        }
+        if self.shadows {
+            scene.shadows = true;
+        }
+        if let Some(n) = self.ao {
+            let samples = checks::ao_samples(n)?;
+            let distance = checks::ao_distance(self.ao_distance.or(scene.ao.map(|a| a.distance)).unwrap_or_else(|| scene.default_ao_distance()))?;
+            scene.ao = Some(isomarch::scene::Ao { samples, distance });
+        }
+        Ok(())
+    }
+}

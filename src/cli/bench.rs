@@ -1,0 +1,211 @@
+//! `isomarch bench`: marchers compared on the benchmark protocol.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::{Args, ValueEnum};
+
+use isomarch::bench;
+use isomarch::checks;
+use isomarch::output::{self, FileFormat, png_bytes, write_atomic};
+use isomarch::render::offscreen::{RenderJob, render_frame};
+use isomarch::scene::Scene;
+use isomarch::settings::{QuadSettings, ValidityScope};
+
+use super::args::{GpuArgs, MarchArgs, MoleculeArgs, PlayArgs};
+use super::finish;
+
+/// `isomarch bench`.
+#[derive(Args)]
+pub struct BenchArgs {
+    /// Scene file (RON) or molecule file (.pdb, .cif, .gro, optionally .gz),
+    /// or a trajectory's topology (those, or .psf).
+    scene: PathBuf,
+    /// Trajectory of the topology: benchmark one frame (--frame).
+    trajectory: Option<PathBuf>,
+    #[command(flatten)]
+    play: PlayArgs,
+    /// Comma-separated marchers; ratios are to the first.
+    #[arg(long, default_value = "segment,sphere")]
+    methods: String,
+    /// Number of rays.
+    #[arg(long, default_value_t = bench::DEFAULT_RAYS)]
+    rays: usize,
+    /// Seed of the ray set.
+    #[arg(long, default_value_t = bench::DEFAULT_SEED)]
+    seed: u64,
+    /// Instead of the protocol's rays, a seeded sample of `--rays` of the
+    /// scene camera's pixel rays, without repeats: the rays a rendered
+    /// frame marches. The frame is the scene's resolution, or WxH when
+    /// given (`--camera 750x750`).
+    #[arg(long, value_parser = checks::parse_size, value_name = "WxH", num_args = 0..=1)]
+    camera: Option<Option<(u32, u32)>>,
+    /// Run the whole list of methods this many times, interleaved, and
+    /// report each time as the median over repeats with its range, and
+    /// each time ratio as the median of the ratios within each repeat
+    /// (GPU times move by 10-30% between runs on a shared CPU).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    repeat: usize,
+    /// Also write the report as JSON.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    #[command(flatten)]
+    variants: VariantArgs,
+    /// Also render the scene's camera view with each method and write
+    /// their step heatmaps side by side on one scale (like Figure 10).
+    #[arg(long, value_name = "PNG")]
+    heatmap_grid: Option<PathBuf>,
+    /// Image size of each heatmap panel.
+    #[arg(long, value_parser = checks::parse_size, default_value = "256x256")]
+    size: (u32, u32),
+    /// Top of the shared heatmap scale (default 75, as in the paper).
+    #[arg(long, default_value_t = 75)]
+    steps_max: u32,
+    /// Benchmark the any-hit query of shadows and ambient occlusion: from
+    /// the f64 reference's first hit of each ray, the scene's shadow and
+    /// occlusion rays (--shadows, --ao N; both, with 8 occlusion rays,
+    /// when the scene and the flags ask for neither), marched by every
+    /// method and compared with the reference's answers ray by ray.
+    #[arg(long)]
+    any_hit: bool,
+    #[command(flatten)]
+    molecule: MoleculeArgs,
+    #[command(flatten)]
+    march: MarchArgs,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
+/// A setting that `bench` runs one way, or both ways to measure it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Switch {
+    On,
+    Off,
+    Both,
+}
+
+impl Switch {
+    /// The one value asked for; `None` for both.
+    fn only(self) -> Option<bool> {
+        match self {
+            Switch::On => Some(true),
+            Switch::Off => Some(false),
+            Switch::Both => None,
+        }
+    }
+}
+
+/// `--validity`: one `ValidityScope`, or both to compare them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ValidityChoice {
+    Significant,
+    Every,
+    Both,
+}
+
+impl ValidityChoice {
+    /// The one scope asked for; `None` for both.
+    fn only(self) -> Option<ValidityScope> {
+        match self {
+            ValidityChoice::Significant => Some(ValidityScope::Significant),
+            ValidityChoice::Every => Some(ValidityScope::Every),
+            ValidityChoice::Both => None,
+        }
+    }
+}
+
+/// The settings a bench compares, each on, off or both.
+#[derive(Args)]
+pub struct VariantArgs {
+    /// Per-ray support culling (identical results, less work): on, off,
+    /// or both to measure it in one run.
+    #[arg(long, value_enum, default_value_t = Switch::On)]
+    cull: Switch,
+    /// Per-primitive bounds of compact kernels (Section 6.2.1) for the
+    /// Taylor and bottom-up quadratic methods: on, off, or both to measure it
+    /// in one run (default: the scene's marching.extension).
+    #[arg(long, value_enum)]
+    extension: Option<Switch>,
+    /// Which Gaussians impose validity intervals on `quadratic`:
+    /// significant (peak on the ray >= 1e-3 iso), every, or both
+    /// (default: the scene's marching.validity).
+    #[arg(long, value_enum)]
+    validity: Option<ValidityChoice>,
+    /// Also run each method with generic pipelines (every primitive kind
+    /// and the max of groups compiled in) to measure what specialising
+    /// them to the scene buys; rows marked "generic".
+    #[arg(long)]
+    generic: bool,
+}
+
+impl VariantArgs {
+    /// The variants a bench compares: the first is the default (the
+    /// scene's settings with what was asked for, culling on unless `--cull
+    /// off`), then each `both`, and `--generic`, adds the other value of
+    /// its setting to every variant so far.
+    fn variants(&self, scene: &Scene) -> Vec<bench::Variant> {
+        let mut base = bench::Variant { cull: self.cull.only().unwrap_or(true), quad: scene.marching.quad, generic: false };
+        if let Some(on) = self.extension.and_then(Switch::only) {
+            base.quad.extension = on;
+        }
+        if let Some(scope) = self.validity.and_then(ValidityChoice::only) {
+            base.quad.validity = scope;
+        }
+        let mut variants = vec![base];
+        let mut add = |f: &dyn Fn(bench::Variant) -> bench::Variant| {
+            let more: Vec<_> = variants.iter().map(|&v| f(v)).collect();
+            variants.extend(more);
+        };
+        if self.cull == Switch::Both {
+            add(&|v| bench::Variant { cull: !v.cull, ..v });
+        }
+        if self.extension == Some(Switch::Both) {
+            add(&|v| bench::Variant { quad: QuadSettings { extension: !v.quad.extension, ..v.quad }, ..v });
+        }
+        if self.validity == Some(ValidityChoice::Both) {
+            let other = |s| if s == ValidityScope::Every { ValidityScope::Significant } else { ValidityScope::Every };
+            add(&|v| bench::Variant { quad: QuadSettings { validity: other(v.quad.validity), ..v.quad }, ..v });
+        }
+        if self.generic {
+            add(&|v| bench::Variant { generic: true, ..v });
+        }
+        variants
+    }
+}
+
+pub fn run(args: BenchArgs) -> Result<()> {
+    let methods = checks::methods(&args.methods)?;
+    let rays = checks::rays(args.rays)?;
+    if let Some(path) = &args.json {
+        FileFormat::of("--json", path, &[FileFormat::Json])?;
+    }
+    if let Some(path) = &args.heatmap_grid {
+        FileFormat::of("--heatmap-grid", path, &[FileFormat::Png])?;
+    }
+    // An animated scene is measured as posed at time 0.
+    let scene = args.march.open(&args.molecule.source(&args.scene, args.trajectory.as_deref(), &args.play))?.scene(args.play.frame)?.at_time(0.0);
+    let variants = args.variants.variants(&scene);
+    let camera = args.camera.map(|size| size.unwrap_or((scene.camera.width, scene.camera.height)));
+    let plan = bench::Plan { methods: &methods, variants: &variants, rays, seed: args.seed, repeats: args.repeat, camera, any_hit: args.any_hit };
+    plan.check()?;
+    let gpu = args.gpu.open()?;
+    let report = bench::run(&gpu.ctx, &scene, &plan, gpu.timeout)?;
+    print!("{}", bench::markdown(&report));
+    if let Some(path) = args.json {
+        write_atomic(&path, &serde_json::to_vec_pretty(&report)?)?;
+    }
+    if let Some(path) = args.heatmap_grid {
+        // The grid shows the first variant's settings.
+        let mut scene = scene.clone();
+        scene.marching.quad = variants[0].quad;
+        let mut panels = Vec::new();
+        for &method in &methods {
+            let job = RenderJob::new(scene.clone(), method, args.size, PathBuf::new(), gpu.timeout);
+            let (frame, _) = render_frame(&gpu.ctx, &job)?;
+            panels.push((method.to_string(), frame.steps()));
+        }
+        let grid = output::heatmap_grid(args.size.0, args.size.1, &panels, Some(args.steps_max));
+        write_atomic(&path, &png_bytes(&grid)?)?;
+    }
+    finish(&gpu.ctx)
+}

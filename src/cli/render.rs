@@ -1,0 +1,243 @@
+//! `isomarch render`: one frame, or a batch of frames (`--frames`).
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use anyhow::{Context as _, Result, bail};
+use clap::Args;
+
+use isomarch::checks;
+use isomarch::molecule::playback::Stager;
+use isomarch::open::Input;
+use isomarch::output::{Aov, FileFormat};
+use isomarch::render::offscreen::{RenderJob, render_to_files};
+use isomarch::scene::Scene;
+
+use super::args::{GpuArgs, MarchArgs, MoleculeArgs, PlayArgs};
+use super::report::{self, count, method_note};
+use super::{Interrupted, finish};
+
+/// A sequence of frames: `-o` is then a pattern such as out/frame_####.png.
+#[derive(Args)]
+pub struct BatchArgs {
+    /// Render a sequence of frames, in Rust range syntax: 0..100 excludes
+    /// 100, 0..=99 includes 99. Each PNG is written whole or not at all;
+    /// Ctrl-C (or SIGTERM, as from scancel) stops after the frame in flight.
+    #[arg(long, value_name = "RANGE")]
+    frames: Option<isomarch::batch::FrameRange>,
+    /// Scene time in seconds of a single frame (animated scenes).
+    #[arg(long, default_value_t = 0.0, conflicts_with = "frames")]
+    time: f64,
+    /// Frames per second: frame n is at scene time n / fps.
+    #[arg(long, default_value_t = 25.0, requires = "frames")]
+    fps: f64,
+    /// Render only shard I of N (from 0): the frames whose number modulo N
+    /// is I. Default: from SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN of
+    /// SLURM_ARRAY_TASK_COUNT, or JOB_COMPLETION_INDEX of --shard-count;
+    /// else every frame.
+    #[arg(long, value_name = "I/N", requires = "frames")]
+    shard: Option<String>,
+    /// The number of shards of a Kubernetes Indexed Job (its completions).
+    #[arg(long, value_name = "N", requires = "frames")]
+    shard_count: Option<u64>,
+    /// Keep frames already on disk (resume an interrupted batch).
+    #[arg(long, requires = "frames")]
+    skip_existing: bool,
+    /// Per-frame statistics, appended (default: frames.csv beside the frames).
+    #[arg(long, value_name = "CSV", requires = "frames")]
+    csv: Option<PathBuf>,
+}
+
+/// `isomarch render`.
+#[derive(Args)]
+pub struct RenderArgs {
+    /// Scene file (RON) or molecule file (.pdb, .cif, .gro, optionally .gz),
+    /// or a trajectory's topology (those, or .psf).
+    scene: PathBuf,
+    /// Trajectory of the topology (.xtc, .dcd, multi-model .pdb or .cif,
+    /// multi-frame .gro). With --frames, frame n of the batch is frame n
+    /// of the trajectory (a file of several models alone plays its models).
+    trajectory: Option<PathBuf>,
+    #[command(flatten)]
+    play: PlayArgs,
+    /// Shaded image: PNG, or the linear image as 32-bit float OpenEXR
+    /// (.exr; with --aov and no --aov-output, the AOVs go in the same file).
+    /// The format follows the extension; any other is refused.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Image size as WxH, overriding the scene's camera.resolution.
+    #[arg(long, value_parser = checks::parse_size)]
+    size: Option<(u32, u32)>,
+    /// Also write a step-count heatmap PNG with a legend.
+    #[arg(long, value_name = "PNG")]
+    heatmap: Option<PathBuf>,
+    /// Fix the heatmap scale (the paper's Figure 12 uses 75); default: the image's maximum.
+    #[arg(long, value_name = "N")]
+    steps_max: Option<u32>,
+    /// Per-pixel outputs written as 32-bit float OpenEXR.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    aov: Vec<Aov>,
+    /// Where to write the AOVs (default: the output path with .exr).
+    #[arg(long, value_name = "EXR")]
+    aov_output: Option<PathBuf>,
+    /// Write statistics (steps, evaluations, GPU time) as JSON.
+    #[arg(long, value_name = "JSON")]
+    stats: Option<PathBuf>,
+    /// Anti-aliasing: N rays per pixel at sub-pixel positions (a Latin
+    /// hypercube in each pixel, so a straight vertical or horizontal edge
+    /// is covered within 1/N; jittered and deterministic), their colours
+    /// averaged in linear light. Steps in the heatmap and statistics count
+    /// every ray; depth and normal AOVs are the first sample's.
+    /// [default: the scene's camera.samples, else 1]
+    #[arg(long, value_name = "N")]
+    samples: Option<u32>,
+    #[command(flatten)]
+    batch: BatchArgs,
+    #[command(flatten)]
+    molecule: MoleculeArgs,
+    #[command(flatten)]
+    march: MarchArgs,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
+/// What `render` will do, every value checked, before the device is
+/// opened.
+#[allow(clippy::large_enum_variant)] // one per run
+enum Plan {
+    /// One frame and its outputs.
+    Still { job: RenderJob, gpu: GpuArgs },
+    /// A batch of frames (`--frames`).
+    Batch(Batch),
+}
+
+/// `render --frames`: a batch of PNGs and their statistics CSV.
+struct Batch {
+    job: RenderJob,
+    stager: Option<Stager>,
+    pattern: String,
+    range: isomarch::batch::FrameRange,
+    fps: f64,
+    shard: isomarch::batch::Shard,
+    skip_existing: bool,
+    csv: PathBuf,
+    gpu: GpuArgs,
+}
+
+impl TryFrom<RenderArgs> for Plan {
+    type Error = anyhow::Error;
+
+    fn try_from(args: RenderArgs) -> Result<Plan> {
+        let mut input = args.march.open(&args.molecule.source(&args.scene, args.trajectory.as_deref(), &args.play))?;
+        if let (Some(range), Some(k)) = (args.batch.frames, args.play.frame) {
+            bail!("--frame {k} renders one frame; --frames {}..{} renders a batch: give one of them", range.start, range.end);
+        }
+        if let Some(range) = args.batch.frames {
+            let (scene, stager) = match input {
+                Input::Still(scene) => (scene, None),
+                Input::Frames(mut stager) => {
+                    // Every frame asked for must exist before any is rendered;
+                    // the message names the first that does not.
+                    let first_missing = range.start.max(stager.len() as u64) as usize;
+                    if first_missing < range.end as usize {
+                        stager.check_frame(first_missing).with_context(|| format!("--frames {}..{}", range.start, range.end))?;
+                    }
+                    (stager.scene(range.start as usize)?.0, Some(stager))
+                }
+            };
+            return Ok(Plan::Batch(Batch::new(args, range, scene, stager)?));
+        }
+        let scene = input.scene(args.play.frame)?;
+        let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
+        let scene = scene.at_time(checks::time(args.batch.time)?);
+        let method = scene.marching.method;
+        let job = RenderJob {
+            heatmap: args.heatmap,
+            steps_max: args.steps_max,
+            aovs: args.aov,
+            aov_output: args.aov_output,
+            stats: args.stats,
+            samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
+            ..RenderJob::new(scene, method, size, args.output, args.gpu.timeout()?)
+        };
+        // Every output's format from its extension, before any work.
+        job.outputs()?;
+        isomarch::render::light::check_method(&job.scene, job.method)?;
+        Ok(Plan::Still { job, gpu: args.gpu })
+    }
+}
+
+impl Batch {
+    fn new(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Scene, stager: Option<Stager>) -> Result<Batch> {
+        let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
+        let RenderArgs { output, batch, .. } = args;
+        if args.heatmap.is_some() || !args.aov.is_empty() || args.stats.is_some() || args.aov_output.is_some() || args.steps_max.is_some() {
+            bail!(
+                "--frames writes shaded PNGs and a statistics CSV (--csv); --heatmap, --steps-max, --aov, --aov-output and --stats are for single frames"
+            );
+        }
+        let fps = checks::fps(batch.fps)?;
+        let pattern = output.to_string_lossy().into_owned();
+        isomarch::batch::frame_path(&pattern, range.start)?;
+        FileFormat::of("-o", &output, FileFormat::IMAGE)?;
+        let shard = isomarch::batch::Shard::resolve(batch.shard.as_deref(), batch.shard_count, |k| std::env::var(k).ok())?;
+        let csv = batch.csv.unwrap_or_else(|| {
+            output.parent().filter(|p| !p.as_os_str().is_empty()).map_or_else(|| PathBuf::from("frames.csv"), |p| p.join("frames.csv"))
+        });
+        FileFormat::of("--csv", &csv, &[FileFormat::Csv])?;
+        let method = scene.marching.method;
+        let job = RenderJob {
+            samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
+            ..RenderJob::new(scene, method, size, output, args.gpu.timeout()?)
+        };
+        isomarch::render::light::check_method(&job.scene, job.method)?;
+        Ok(Batch { job, stager, pattern, range, fps, shard, skip_existing: batch.skip_existing, csv, gpu: args.gpu })
+    }
+
+    fn run(self) -> Result<()> {
+        let Batch { job, stager, pattern, range, fps, shard, skip_existing, csv, gpu } = self;
+        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let flag = Arc::clone(&stop);
+        // Ctrl-C, and SIGTERM and SIGHUP (scancel, a pod's deletion, a closed
+        // terminal): stop between frames, so that no temporary file is left.
+        ctrlc::set_handler(move || {
+            if flag.swap(true, std::sync::atomic::Ordering::SeqCst) {
+                // A second signal: leave now. Files are renamed into
+                // place whole, so none is half-written.
+                std::process::exit(130);
+            }
+            eprintln!("\nstopping after the frame in flight (Ctrl-C again to quit now)");
+        })
+        .context("installing the signal handler")?;
+        let gpu = gpu.open()?;
+        method_note(&job.scene, job.method);
+        let s = isomarch::batch::run(&gpu.ctx, &job, stager, &pattern, range, fps, shard, skip_existing, &csv, &stop)?;
+        eprintln!(
+            "{} rendered, {} kept from disk (shard {}/{}); statistics in {}",
+            count(s.rendered, "frame"),
+            s.skipped,
+            shard.index,
+            shard.count,
+            csv.display()
+        );
+        finish(&gpu.ctx)?;
+        if s.interrupted {
+            eprintln!("interrupted: rerun with --skip-existing to render the rest");
+            return Err(Interrupted.into());
+        }
+        Ok(())
+    }
+}
+
+pub fn run(args: RenderArgs) -> Result<()> {
+    match Plan::try_from(args)? {
+        Plan::Still { job, gpu } => {
+            method_note(&job.scene, job.method);
+            let gpu = gpu.open()?;
+            let s = render_to_files(&gpu.ctx, &job)?;
+            report::render(&job, &s);
+            finish(&gpu.ctx)
+        }
+        Plan::Batch(batch) => batch.run(),
+    }
+}
