@@ -1,9 +1,7 @@
 //! Anti-aliasing (`render --samples N`) against the closed form: a straight
 //! edge's pixels hold its analytic coverage within 1/N, for every method.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use isomarch::scene::Scene;
 
@@ -83,4 +81,38 @@ fn an_edges_pixels_hold_its_analytic_coverage_within_one_over_n() {
             assert_eq!(partial, if n == 1 { 0 } else { h as usize }, "{method}, {n} samples: partly covered pixels");
         }
     }
+}
+
+/// `--samples` is checked (1 to 4096), the scene's `camera.samples` is the
+/// default, and `--frames` renders each frame with the samples a single
+/// frame takes.
+#[test]
+fn samples_are_checked_defaulted_from_the_scene_and_kept_in_batches() {
+    let dir = scratch("aa-samples");
+    let path = dir.join("edge.ron");
+    std::fs::write(&path, scene_text("quadratic-taylor")).unwrap();
+    let p = path.to_str().unwrap();
+    let out = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    for bad in ["0", "4097"] {
+        let err = isomarch(["render", p, "-o", &out("bad.png"), "--samples", bad]).fails_in_one_line();
+        assert!(err.contains("--samples must be 1 to 4096") && err.contains(bad), "{err}");
+    }
+    assert!(!dir.join("bad.png").exists());
+    // 4096 is allowed.
+    isomarch(["render", p, "-o", &out("most.png"), "--samples", "4096", "--size", "4x2"]).ok();
+    // camera.samples: 4 in the file renders as --samples 4, and the flag
+    // still overrides it.
+    let with_four = dir.join("edge4.ron");
+    std::fs::write(&with_four, scene_text("quadratic-taylor").replace("resolution: (40, 8)", "resolution: (40, 8), samples: 4")).unwrap();
+    isomarch(["render", with_four.to_str().unwrap(), "-o", &out("file4.png")]).ok();
+    isomarch(["render", p, "-o", &out("flag4.png"), "--samples", "4"]).ok();
+    isomarch(["render", p, "-o", &out("flag1.png")]).ok();
+    isomarch(["render", with_four.to_str().unwrap(), "-o", &out("file4-flag1.png"), "--samples", "1"]).ok();
+    let bytes = |name: &str| std::fs::read(dir.join(name)).unwrap();
+    assert!(bytes("file4.png") == bytes("flag4.png"), "camera.samples 4 renders otherwise than --samples 4");
+    assert!(bytes("file4-flag1.png") == bytes("flag1.png"), "--samples 1 does not override camera.samples");
+    assert!(bytes("flag4.png") != bytes("flag1.png"), "4 samples and 1 give the same image");
+    // A batch frame with --samples 4 is the single frame with them.
+    isomarch(["render", p, "-o", &out("f_#.png"), "--frames", "0..1", "--samples", "4"]).ok();
+    assert!(bytes("f_0.png") == bytes("flag4.png"), "--frames renders with other samples than a single frame");
 }

@@ -2,11 +2,9 @@
 //! the frame's results pixel for pixel, and for a single blob sphere its
 //! closed form.
 
-mod common;
-
 use std::path::PathBuf;
 
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use isomarch::Method;
 use isomarch::layout::FLAG_HIT;
@@ -105,4 +103,46 @@ fn exr_aovs_hold_the_frames_results_and_the_spheres_closed_form() {
         }
     }
     assert!(hits > 200 && misses > 200, "{hits} hits, {misses} misses: the sphere is not framed");
+}
+
+/// The turns, visits and steps channels average to `--stats`'
+/// `turns_per_ray`, `visits_per_ray` and `steps_per_ray`, which are
+/// counted apart (a channel holding another's counts fails): on the blob,
+/// marched flat, and on 1A8O, whose camera rays take the tile lists.
+#[test]
+fn aov_channels_average_to_the_statistics_of_the_same_frame() {
+    let dir = scratch("aovs-stats");
+    let sphere = dir.join("sphere.ron");
+    std::fs::write(&sphere, SPHERE).unwrap();
+    let molecule = repo_root().join("tests/data/molecules/1A8O.pdb");
+    for (name, scene, size) in [("sphere", sphere.as_path(), "40x32"), ("1A8O", molecule.as_path(), "48x48")] {
+        let (exr_path, stats_path) = (dir.join(format!("{name}.exr")), dir.join(format!("{name}.json")));
+        run_ok(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            dir.join(format!("{name}.png")).to_str().unwrap(),
+            "--size",
+            size,
+            "--aov",
+            "steps,turns,visits",
+            "--aov-output",
+            exr_path.to_str().unwrap(),
+            "--stats",
+            stats_path.to_str().unwrap(),
+        ]);
+        let exr = exr::prelude::read_all_flat_layers_from_file(&exr_path).unwrap();
+        let stats = json(&stats_path);
+        assert_eq!(stats["rays"].as_u64(), Some(exr_channel(&exr, "steps").len() as u64), "{name}: one ray per pixel");
+        let mut means = Vec::new();
+        for (channel, key) in [("steps", "steps_per_ray"), ("turns", "turns_per_ray"), ("visits", "visits_per_ray")] {
+            let values = exr_channel(&exr, channel);
+            let mean = values.iter().map(|&v| f64::from(v)).sum::<f64>() / values.len() as f64;
+            let expected = stats[key].as_f64().unwrap();
+            assert!((mean - expected).abs() <= 1e-9 * expected.max(1.0), "{name}: the {channel} channel's mean {mean}, {key} {expected}");
+            means.push(mean);
+        }
+        // Three different numbers, so that no two channels can be swapped.
+        assert!(means[0] < means[1] && means[1] != means[2], "{name}: steps, turns and visits per ray {means:?}");
+    }
 }

@@ -3,14 +3,12 @@
 //! leaves only whole frames and resumes with --skip-existing; merge-stats
 //! joins shards' CSVs. On a real SLURM: tests/slurm.rs.
 
-mod common;
-
 use std::collections::BTreeSet;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-use common::*;
+use crate::common::*;
 
 /// The frame numbers listed in a batch's statistics CSV.
 fn csv_frames(csv: &Path) -> Vec<u64> {
@@ -20,17 +18,16 @@ fn csv_frames(csv: &Path) -> Vec<u64> {
     lines.map(|l| l.split(',').next().unwrap().parse().unwrap()).collect()
 }
 
-fn render_batch(dir: &Path, extra: &[&str], envs: &[(&str, &str)]) -> std::process::Output {
-    Command::new(bin())
-        .args(["render", "scenes/default.ron", "--size", "32x32", "-o"])
+/// `render scenes/default.ron` at 32x32 into `dir` with `extra` flags, in
+/// no scheduler's environment but `envs`; to run.
+fn render_batch(dir: &Path, extra: &[&str], envs: &[(&str, &str)]) -> Isomarch {
+    isomarch(["render", "scenes/default.ron", "--size", "32x32", "-o"])
         .arg(dir.join("f_####.png"))
         .args(extra)
         .env_remove("SLURM_ARRAY_TASK_ID")
         .env_remove("JOB_COMPLETION_INDEX")
         .envs(envs.iter().copied())
         .current_dir(repo_root())
-        .output()
-        .unwrap()
 }
 
 /// Every file in `dir` that a frame pattern names decodes as a whole PNG,
@@ -54,8 +51,7 @@ fn two_shards_cover_a_frame_range_exactly_once() {
     let mut seen = Vec::new();
     for shard in ["0/2", "1/2"] {
         let csv = dir.join(format!("shard{}.csv", &shard[..1]));
-        let run = render_batch(&dir, &["--frames", "0..=6", "--shard", shard, "--csv", csv.to_str().unwrap()], &[]);
-        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        render_batch(&dir, &["--frames", "0..=6", "--shard", shard, "--csv", csv.to_str().unwrap()], &[]).ok();
         seen.extend(csv_frames(&csv));
     }
     seen.sort();
@@ -65,23 +61,16 @@ fn two_shards_cover_a_frame_range_exactly_once() {
     assert!(names.contains("f_0000.png") && names.contains("f_0006.png"));
     // merge-stats: one CSV in frame order; a shard left out is refused.
     let merge = |out: &Path, shards: &[&str]| {
-        let mut cmd = Command::new(bin());
-        cmd.args(["merge-stats", "--frames", "0..=6", "-o"]).arg(out);
-        for s in shards {
-            cmd.arg(dir.join(format!("shard{s}.csv")));
-        }
-        cmd.output().unwrap()
+        isomarch(["merge-stats", "--frames", "0..=6", "-o"]).arg(out).args(shards.iter().map(|s| dir.join(format!("shard{s}.csv"))))
     };
     let merged = dir.join("merged.csv");
-    let run = merge(&merged, &["1", "0"]);
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    merge(&merged, &["1", "0"]).ok();
     assert_eq!(csv_frames(&merged), (0..=6).collect::<Vec<u64>>());
-    let run = merge(&dir.join("half.csv"), &["0"]);
-    let err = String::from_utf8_lossy(&run.stderr);
-    assert!(!run.status.success() && err.contains("3 frame(s) missing (1, 3, 5)"), "{err}");
+    let err = merge(&dir.join("half.csv"), &["0"]).fails();
+    assert!(err.contains("3 frame(s) missing (1, 3, 5)"), "{err}");
     assert!(!dir.join("half.csv").exists());
-    let run = merge(&dir.join("twice.csv"), &["0", "1", "0"]);
-    assert!(!run.status.success() && String::from_utf8_lossy(&run.stderr).contains("listed more than once"));
+    let err = merge(&dir.join("twice.csv"), &["0", "1", "0"]).fails();
+    assert!(err.contains("listed more than once"), "{err}");
 }
 
 #[test]
@@ -89,23 +78,18 @@ fn the_shard_comes_from_slurm_or_kubernetes() {
     let dir = scratch("scheduler");
     let slurm = [("SLURM_ARRAY_TASK_ID", "5"), ("SLURM_ARRAY_TASK_MIN", "4"), ("SLURM_ARRAY_TASK_COUNT", "3")];
     let csv = dir.join("slurm.csv");
-    let run = render_batch(&dir, &["--frames", "0..9", "--csv", csv.to_str().unwrap()], &slurm);
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    render_batch(&dir, &["--frames", "0..9", "--csv", csv.to_str().unwrap()], &slurm).ok();
     assert_eq!(csv_frames(&csv), vec![1, 4, 7], "SLURM task 5 of 4..=6 is shard 1 of 3");
     let csv = dir.join("k8s.csv");
-    let run = render_batch(&dir, &["--frames", "0..9", "--shard-count", "4", "--csv", csv.to_str().unwrap()], &[("JOB_COMPLETION_INDEX", "2")]);
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    render_batch(&dir, &["--frames", "0..9", "--shard-count", "4", "--csv", csv.to_str().unwrap()], &[("JOB_COMPLETION_INDEX", "2")]).ok();
     assert_eq!(csv_frames(&csv), vec![2, 6]);
-    let run = render_batch(&dir, &["--frames", "0..9"], &[("JOB_COMPLETION_INDEX", "2")]);
-    assert!(!run.status.success(), "an Indexed Job without --shard-count must be refused");
-    assert!(String::from_utf8_lossy(&run.stderr).contains("--shard-count"));
+    // An Indexed Job without --shard-count is refused.
+    let err = render_batch(&dir, &["--frames", "0..9"], &[("JOB_COMPLETION_INDEX", "2")]).fails();
+    assert!(err.contains("--shard-count"), "{err}");
     // A count of 0 and an index past the count: one line, nothing written.
     let bad = scratch("scheduler-bad");
     for (count, index) in [("0", "0"), ("3", "3")] {
-        let run = render_batch(&bad, &["--frames", "0..9", "--shard-count", count], &[("JOB_COMPLETION_INDEX", index)]);
-        let err = String::from_utf8_lossy(&run.stderr);
-        assert!(!run.status.success(), "shard {index} of {count} must be refused");
-        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        let err = render_batch(&bad, &["--frames", "0..9", "--shard-count", count], &[("JOB_COMPLETION_INDEX", index)]).fails_in_one_line();
         assert!(err.contains(&format!("shard {index} of {count} does not exist")), "{err}");
     }
     assert_eq!(std::fs::read_dir(&bad).unwrap().count(), 0, "a refused shard wrote something");
@@ -137,13 +121,11 @@ fn an_interrupted_batch_resumes_with_skip_existing() {
     let frames = 150;
     let range = format!("0..{frames}");
     // Large enough frames that the batch is still running when stopped.
-    let mut child = Command::new(bin())
-        .args(["render", "scenes/fig10.ron", "--size", "96x96", "--frames", &range, "-o"])
+    let mut child = isomarch(["render", "scenes/fig10.ron", "--size", "96x96", "--frames", &range, "-o"])
         .arg(dir.join("f_####.png"))
         .current_dir(repo_root())
         .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+        .spawn();
     let start = Instant::now();
     while !dir.join("f_0001.png").exists() {
         assert!(start.elapsed() < Duration::from_secs(120), "no frame after two minutes");
@@ -158,13 +140,10 @@ fn an_interrupted_batch_resumes_with_skip_existing() {
     assert!(before.len() < frames, "the interruption came too late to test anything ({} frames)", before.len());
     let mtimes: Vec<_> = before.iter().map(|n| std::fs::metadata(dir.join(n)).unwrap().modified().unwrap()).collect();
 
-    let run = Command::new(bin())
-        .args(["render", "scenes/fig10.ron", "--size", "96x96", "--frames", &range, "--skip-existing", "-o"])
+    isomarch(["render", "scenes/fig10.ron", "--size", "96x96", "--frames", &range, "--skip-existing", "-o"])
         .arg(dir.join("f_####.png"))
         .current_dir(repo_root())
-        .output()
-        .unwrap();
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        .ok();
     let after = assert_only_whole_frames(&dir);
     assert_eq!(after.len(), frames, "every frame is on disk after the resume");
     for (name, mtime) in before.iter().zip(mtimes) {
@@ -182,13 +161,10 @@ fn animated_frames_move_and_static_frames_do_not() {
     // 0..=25 in shard 0 of 25: frames 0 and 25, one second apart.
     let frames = |scene: &str, sub: &str| {
         let out = dir.join(sub);
-        let run = Command::new(bin())
-            .args(["render", scene, "--size", "48x40", "--frames", "0..=25", "--shard", "0/25", "-o"])
+        isomarch(["render", scene, "--size", "48x40", "--frames", "0..=25", "--shard", "0/25", "-o"])
             .arg(out.join("f_##.png"))
             .current_dir(repo_root())
-            .output()
-            .unwrap();
-        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+            .ok();
         let a = image::open(out.join("f_00.png")).unwrap().to_rgb8();
         let b = image::open(out.join("f_25.png")).unwrap().to_rgb8();
         a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
@@ -203,8 +179,7 @@ fn animated_frames_move_and_static_frames_do_not() {
 #[test]
 fn tradeoff_writes_its_csv_and_plot() {
     let dir = scratch("tradeoff");
-    let run = Command::new(bin()).args(["tradeoff", "scenes/fig10.ron", "--quick", "-o"]).arg(&dir).current_dir(repo_root()).output().unwrap();
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    isomarch(["tradeoff", "scenes/fig10.ron", "--quick", "-o"]).arg(&dir).current_dir(repo_root()).ok();
     let text = std::fs::read_to_string(dir.join("tradeoff.csv")).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
@@ -256,8 +231,7 @@ fn tradeoff_writes_its_csv_and_plot() {
     }
     // --replot draws the plot again from the CSV alone.
     std::fs::remove_file(dir.join("tradeoff.png")).unwrap();
-    let run = Command::new(bin()).args(["tradeoff", "scenes/fig10.ron", "--replot", "-o"]).arg(&dir).current_dir(repo_root()).output().unwrap();
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    isomarch(["tradeoff", "scenes/fig10.ron", "--replot", "-o"]).arg(&dir).current_dir(repo_root()).ok();
     assert!(image::open(dir.join("tradeoff.png")).is_ok(), "--replot wrote no PNG");
 }
 
@@ -310,35 +284,57 @@ fn batch_frames_equal_single_renders_at_their_times() {
 fn a_batch_does_not_append_rows_to_another_scenes_csv() {
     let dir = scratch("batch-two-scenes");
     let csv = dir.join("frames.csv");
-    let out = render_batch(&dir, &["--frames", "0..2"], &[]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let other = Command::new(bin())
-        .args(["render", "scenes/fig1.ron", "--size", "32x32", "--frames", "0..2", "-o"])
+    render_batch(&dir, &["--frames", "0..2"], &[]).ok();
+    let stderr = isomarch(["render", "scenes/fig1.ron", "--size", "32x32", "--frames", "0..2", "-o"])
         .arg(dir.join("g_####.png"))
         .current_dir(repo_root())
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&other.stderr);
-    assert_eq!(other.status.code(), Some(1), "{stderr}");
-    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        .fails_in_one_line();
     assert!(stderr.contains("lists a frame of scenes/default.ron, and this batch renders scenes/fig1.ron") && stderr.contains("--csv"), "{stderr}");
     assert!(!dir.join("g_0000.png").exists(), "the refused batch rendered");
     assert_eq!(csv_frames(&csv), vec![0, 1]);
     // The same scene appends: frames 2 and 3 after 0 and 1.
-    let out = render_batch(&dir, &["--frames", "2..4"], &[]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    render_batch(&dir, &["--frames", "2..4"], &[]).ok();
     assert_eq!(csv_frames(&csv), vec![0, 1, 2, 3]);
     let text = std::fs::read_to_string(&csv).unwrap();
     assert!(text.lines().skip(1).all(|l| l.ends_with(",\"scenes/default.ron\"")), "{text}");
     // Its own CSV: the other scene runs.
-    let own = Command::new(bin())
-        .args(["render", "scenes/fig1.ron", "--size", "32x32", "--frames", "0..2", "-o"])
+    isomarch(["render", "scenes/fig1.ron", "--size", "32x32", "--frames", "0..2", "-o"])
         .arg(dir.join("g_####.png"))
         .arg("--csv")
         .arg(dir.join("fig1.csv"))
         .current_dir(repo_root())
-        .output()
-        .unwrap();
-    assert!(own.status.success(), "{}", String::from_utf8_lossy(&own.stderr));
+        .ok();
     assert_eq!(csv_frames(&dir.join("fig1.csv")), vec![0, 1]);
+}
+
+/// `tradeoff --min-steps` and `--max-steps-list` are the sweep: exactly
+/// their settings, each a row, and each minimum step and budget reaching
+/// the march (a budget of 4 runs rays out of steps that 64 finishes).
+#[test]
+fn tradeoff_sweeps_the_settings_it_is_given() {
+    let dir = scratch("tradeoff-lists");
+    isomarch(["tradeoff", "scenes/fig10.ron", "--methods", "segment", "--min-steps", "0.05,0.2", "--max-steps-list", "4,64", "--rays", "256", "-o"])
+        .arg(&dir)
+        .current_dir(repo_root())
+        .ok();
+    let text = std::fs::read_to_string(dir.join("tradeoff.csv")).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"));
+    let rows: Vec<Vec<&str>> = text.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let mut settings: Vec<(&str, &str, &str)> = rows.iter().map(|r| (r[0], r[1], r[2])).collect();
+    settings.sort_unstable();
+    assert_eq!(
+        settings,
+        [("segment", "0.05", "4"), ("segment", "0.05", "64"), ("segment", "0.2", "4"), ("segment", "0.2", "64")],
+        "the rows are not the settings given:\n{text}"
+    );
+    let num = |min: &str, max: &str, c: &str| {
+        let r = rows.iter().find(|r| r[1] == min && r[2] == max).unwrap();
+        r[col(c)].parse::<f64>().unwrap()
+    };
+    for min in ["0.05", "0.2"] {
+        assert!(num(min, "4", "out_of_steps_rate") > num(min, "64", "out_of_steps_rate"), "minimum step {min}: budget 4 against 64\n{text}");
+    }
+    // A larger minimum step takes fewer steps.
+    assert!(num("0.2", "64", "steps_per_ray") < num("0.05", "64", "steps_per_ray"), "{text}");
 }

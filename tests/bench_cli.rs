@@ -2,9 +2,7 @@
 //! ratios, and the steps marching the same rays gives), `--cull` on and off
 //! giving identical results, and `--growth` reaching the marcher.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use isomarch::Method;
 use isomarch::output::MarchStats;
 use isomarch::render::rays::protocol_rays;
@@ -147,9 +145,8 @@ fn bench_growth_reaches_the_marcher() {
         assert!(slow[i] > 1.05 * default[i], "{method}: growth 1 takes {} steps per ray, the default {}", slow[i], default[i]);
     }
     assert_eq!(steps(&["--growth", "1.5"], "growth-1.5")[0], default[0], "segment's default growth is 1.5");
-    let bad = std::process::Command::new(bin()).args(["bench", "scenes/fig10.ron", "--growth", "0.5"]).current_dir(repo_root()).output().unwrap();
-    let err = String::from_utf8_lossy(&bad.stderr);
-    assert!(!bad.status.success() && err.contains("--growth") && err.trim().lines().count() == 1, "{err}");
+    let err = isomarch(["bench", "scenes/fig10.ron", "--growth", "0.5"]).current_dir(repo_root()).fails_in_one_line();
+    assert!(err.contains("--growth"), "{err}");
 }
 
 /// `--opaque` marches the first crossing only: the bisection baselines,
@@ -157,13 +154,8 @@ fn bench_growth_reaches_the_marcher() {
 /// steps drop to the opaque march's (it no longer follows every crossing).
 #[test]
 fn opaque_flag_marches_a_transparent_scene_for_the_first_crossing() {
-    let refused = std::process::Command::new(bin())
-        .args(["bench", "scenes/hrbf17.ron", "--methods", "raa", "--rays", "64"])
-        .current_dir(repo_root())
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&refused.stderr);
-    assert!(!refused.status.success() && err.contains("opaque"), "{err}");
+    let err = isomarch(["bench", "scenes/hrbf17.ron", "--methods", "raa", "--rays", "64"]).current_dir(repo_root()).fails();
+    assert!(err.contains("opaque"), "{err}");
     let (_, transparent) = bench("hrbf17.ron", &["--methods", "quadratic"], "transparent");
     let (_, opaque) = bench("hrbf17.ron", &["--opaque", "--methods", "quadratic,raa"], "opaque");
     let (t, o) = (num(rows(&transparent)[0], "steps_per_ray"), rows(&opaque).iter().map(|r| num(r, "steps_per_ray")).collect::<Vec<_>>());
@@ -224,5 +216,35 @@ fn bench_any_hit_prints_no_error_columns() {
     for row in rows {
         assert_eq!(cells(row)[at("mean err")], "n/a", "{row}");
         assert_eq!(cells(row)[at("max err")], "n/a", "{row}");
+    }
+}
+
+/// The settings `bench` compares reach the marcher: `--extension both`
+/// (per-primitive bounds of compact kernels) saves quadratic Taylor steps
+/// on fig10, `--validity both` on Gaussians (fig10-gauss) costs bottom-up
+/// quadratic steps where every Gaussian sets a validity interval, and
+/// `--generic` pipelines give the specialised ones' counts exactly.
+#[test]
+fn bench_compares_extension_validity_and_generic_pipelines() {
+    let labelled = |report: &Value| -> Vec<(String, f64)> {
+        rows(report).iter().map(|r| (r["method"].as_str().unwrap().to_string(), num(r, "steps_per_ray"))).collect()
+    };
+    let (_, report) = bench("fig10.ron", &["--methods", "quadratic-taylor", "--extension", "both"], "bench-extension");
+    let got = labelled(&report);
+    assert_eq!(got.iter().map(|r| r.0.as_str()).collect::<Vec<_>>(), ["quadratic-taylor", "quadratic-taylor (no extension)"]);
+    assert!(got[0].1 < got[1].1, "the extension saves no steps: {got:?}");
+    let (_, report) = bench("fig10-gauss.ron", &["--methods", "quadratic", "--validity", "both"], "bench-validity");
+    let got = labelled(&report);
+    assert_eq!(got.iter().map(|r| r.0.as_str()).collect::<Vec<_>>(), ["quadratic", "quadratic (validity: every)"]);
+    assert!(got[0].1 < got[1].1, "every Gaussian's validity interval costs no steps: {got:?}");
+    let (_, report) = bench("fig10.ron", &["--methods", "segment,quadratic-taylor", "--generic"], "bench-generic");
+    let rows = rows(&report);
+    let labels: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
+    assert_eq!(labels, ["segment", "segment (generic)", "quadratic-taylor", "quadratic-taylor (generic)"]);
+    for pair in rows.chunks(2) {
+        let (specialised, generic) = (pair[0], pair[1]);
+        for k in ["steps_per_ray", "hit_rate", "miss_rate", "false_hit_rate", "mean_abs_error", "max_abs_error"] {
+            assert_eq!(specialised[k], generic[k], "{k}: {specialised} against {generic}");
+        }
     }
 }

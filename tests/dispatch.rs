@@ -4,9 +4,7 @@
 //! and its point evaluations (value, gradient, segment tracing's slope
 //! bound) equal the f64 mirror.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use isomarch::Method;
 use isomarch::field::Field;

@@ -11,9 +11,7 @@
 //! with the spatial index); a pile of primitives beyond what one step can
 //! visit within the loop budget is refused.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use isomarch::Method;
 use isomarch::bench::{accuracy, reference_hits};

@@ -2,23 +2,23 @@
 //! byte-identical, the scene loads with the ordinary loader and its bounds
 //! hold every support, bad arguments are refused in one line.
 
-mod common;
-
 use std::path::Path;
-use std::process::{Command, Output};
 
-use common::{bin, json, run_ok, scratch};
+use crate::common::{Isomarch, isomarch, json, repo_root, run_ok, scratch};
 use glam::DVec3;
 use isomarch::scene::{Kernel, Primitive, Scene};
 
-fn generate(args: &[&str], out: &Path) -> Output {
-    Command::new(bin()).args(["generate", "particles"]).args(args).arg("-o").arg(out).output().unwrap()
+/// `isomarch generate particles ARGS -o OUT`, to run.
+fn generate(args: &[&str], out: &Path) -> Isomarch {
+    isomarch(["generate", "particles"]).args(args).arg("-o").arg(out)
 }
 
-fn assert_ok(out: &Output) -> String {
+/// Runs `generate`: it succeeds, silent on stderr, with one summary line
+/// on stdout, which it returns.
+fn assert_ok(run: Isomarch) -> String {
+    let out = run.ok();
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "generate failed ({:?}):\n{stdout}\n{stderr}", out.status);
     assert!(stderr.is_empty(), "generate wrote to stderr: {stderr}");
     assert_eq!(stdout.lines().count(), 1, "one summary line, got: {stdout}");
     stdout
@@ -44,7 +44,7 @@ fn the_same_seed_writes_the_same_bytes() {
     let dir = scratch("generate-seed");
     let (a, b, c) = (dir.join("a.ron"), dir.join("b.ron"), dir.join("c.ron"));
     for (path, seed) in [(&a, "7"), (&b, "7"), (&c, "8")] {
-        assert_ok(&generate(&["--count", "300", "--seed", seed, "--motion"], path));
+        assert_ok(generate(&["--count", "300", "--seed", seed, "--motion"], path));
     }
     let (a, b, c) = (std::fs::read(a).unwrap(), std::fs::read(b).unwrap(), std::fs::read(c).unwrap());
     assert_eq!(a, b, "seed 7 twice gave different files");
@@ -61,7 +61,7 @@ fn generated_scenes_load_with_every_support_in_bounds() {
         let path = dir.join(format!("{kernel}.ron"));
         let mut args = vec!["--count", "1000", "--seed", "3"];
         args.extend_from_slice(flags);
-        let summary = assert_ok(&generate(&args, &path));
+        let summary = assert_ok(generate(&args, &path));
         assert!(summary.contains("1000"), "{summary}");
         let scene = Scene::load(&path).unwrap();
         assert_eq!(scene.primitive_count(), 1000);
@@ -106,7 +106,7 @@ fn generated_scenes_load_with_every_support_in_bounds() {
 fn moving_particles_stay_inside_their_bounds() {
     let dir = scratch("generate-motion");
     let path = dir.join("moving.ron");
-    assert_ok(&generate(&["--count", "200", "--seed", "5", "--motion"], &path));
+    assert_ok(generate(&["--count", "200", "--seed", "5", "--motion"], &path));
     let scene = Scene::load(&path).unwrap();
     assert_eq!(scene.animation.primitives.len(), 200, "every centre moves");
     assert!(scene.bounds_explicit, "the box stays put while the blobs move");
@@ -125,12 +125,9 @@ fn bad_arguments_are_refused_in_one_line() {
         [(&["--count", "0"][..], "zero.ron", "--count"), (&["--count", "10"][..], "scene.txt", ".ron"), (&["--count", "10"][..], "scene", ".ron")]
     {
         let path = dir.join(name);
-        let out = generate(args, &path);
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "{args:?} -o {name} was accepted");
-        assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
+        let (stderr, stdout) = generate(args, &path).fails_in_one_line_and_stdout();
         assert!(stderr.starts_with("error: ") && stderr.contains(expect), "{stderr}");
-        assert!(out.stdout.is_empty());
+        assert!(stdout.is_empty(), "{stdout}");
         assert!(!path.exists(), "{name} was written");
     }
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
@@ -149,7 +146,7 @@ fn assert_sane_index(index: &serde_json::Value, primitives: u64) {
 fn render_and_bench_report_the_spatial_index() {
     let dir = scratch("generate-stats");
     let scene = dir.join("p1000.ron");
-    assert_ok(&generate(&["--count", "1000", "--seed", "2"], &scene));
+    assert_ok(generate(&["--count", "1000", "--seed", "2"], &scene));
     let (s, stats) = (scene.to_str().unwrap(), dir.join("p1000.json"));
     // A frame of camera rays alone takes the camera's tile lists and
     // builds no index; with the lists off (ISOMARCH_TILES=off), the grid.
@@ -160,12 +157,9 @@ fn render_and_bench_report_the_spatial_index() {
     let tiles = &v["tiles"];
     let num = |k: &str| tiles[k].as_f64().unwrap_or_else(|| panic!("tiles.{k} missing or not a number: {tiles}"));
     assert!(num("entries") >= 100.0 && num("longest_list") >= 1.0 && num("tiles") == 36.0 && num("bytes") > 0.0, "{tiles}");
-    let grid = Command::new(bin())
-        .args(["render", s, "--size", "48x48", "-o", dir.join("p.png").to_str().unwrap(), "--stats", stats.to_str().unwrap()])
+    isomarch(["render", s, "--size", "48x48", "-o", dir.join("p.png").to_str().unwrap(), "--stats", stats.to_str().unwrap()])
         .env("ISOMARCH_TILES", "off")
-        .output()
-        .unwrap();
-    assert!(grid.status.success(), "{}", String::from_utf8_lossy(&grid.stderr));
+        .ok();
     let v = json(&stats);
     assert_eq!(v["acceleration"], "grid", "{v}");
     assert!(v["tiles"].is_null(), "{v}");
@@ -178,7 +172,7 @@ fn render_and_bench_report_the_spatial_index() {
     assert!(table.contains("Spatial index:") && table.contains("entries"), "no index footer:\n{table}");
 
     // fig10's 36 blobs march without an index: none reported.
-    let fig10 = common::repo_root().join("scenes/fig10.ron");
+    let fig10 = repo_root().join("scenes/fig10.ron");
     let stats = dir.join("fig10.json");
     run_ok(&["render", fig10.to_str().unwrap(), "--size", "32x32", "-o", dir.join("f.png").to_str().unwrap(), "--stats", stats.to_str().unwrap()]);
     let v = json(&stats);
@@ -200,27 +194,24 @@ fn index_column(csv: &Path) -> Vec<String> {
 fn batch_frames_log_each_index_build() {
     let dir = scratch("generate-batch");
     let moving = dir.join("moving.ron");
-    assert_ok(&generate(&["--count", "150", "--seed", "4", "--motion"], &moving));
+    assert_ok(generate(&["--count", "150", "--seed", "4", "--motion"], &moving));
     let csv = dir.join("moving.csv");
     let pattern = dir.join("m_####.png");
     // The grid (the camera's tile lists build no index).
-    let batch = Command::new(bin())
-        .args([
-            "render",
-            moving.to_str().unwrap(),
-            "--size",
-            "24x24",
-            "--frames",
-            "0..3",
-            "-o",
-            pattern.to_str().unwrap(),
-            "--csv",
-            csv.to_str().unwrap(),
-        ])
-        .env("ISOMARCH_TILES", "off")
-        .output()
-        .unwrap();
-    assert!(batch.status.success(), "{}", String::from_utf8_lossy(&batch.stderr));
+    isomarch([
+        "render",
+        moving.to_str().unwrap(),
+        "--size",
+        "24x24",
+        "--frames",
+        "0..3",
+        "-o",
+        pattern.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+    ])
+    .env("ISOMARCH_TILES", "off")
+    .ok();
     let builds = index_column(&csv);
     assert_eq!(builds.len(), 3);
     for b in &builds {
@@ -234,18 +225,15 @@ fn batch_frames_log_each_index_build() {
         let single = dir.join(format!("single_{n}.png"));
         let time = format!("{}", n as f64 / 25.0);
         // As the batch, through the grid.
-        let out = Command::new(bin())
-            .args(["render", moving.to_str().unwrap(), "--size", "24x24", "--time", &time, "-o", single.to_str().unwrap()])
+        isomarch(["render", moving.to_str().unwrap(), "--size", "24x24", "--time", &time, "-o", single.to_str().unwrap()])
             .env("ISOMARCH_TILES", "off")
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            .ok();
         assert!(frame(n) == std::fs::read(&single).unwrap(), "batch frame {n} differs from render --time {time}");
     }
     // Without an index the column is empty.
     let csv = dir.join("fig10.csv");
     let pattern = dir.join("f_####.png");
-    let fig10 = common::repo_root().join("scenes/fig10.ron");
+    let fig10 = repo_root().join("scenes/fig10.ron");
     run_ok(&[
         "render",
         fig10.to_str().unwrap(),

@@ -1,11 +1,9 @@
 //! Small golden images. On a mismatch the actual image and a difference
 //! image are written beside the golden; `UPDATE_GOLDENS=1` rewrites goldens.
 
-mod common;
-
 use std::path::PathBuf;
 
-use common::*;
+use crate::common::*;
 use image::{Rgb, RgbImage};
 use isomarch::Method;
 use isomarch::output::heatmap_image;
@@ -33,7 +31,7 @@ fn golden_dir() -> PathBuf {
 /// rounding differs between drivers at silhouettes).
 fn check_golden(name: &str, actual: &RgbImage) {
     let path = golden_dir().join(format!("{name}.png"));
-    if std::env::var("UPDATE_GOLDENS").is_ok_and(|v| v == "1") {
+    if rewriting("UPDATE_GOLDENS") {
         actual.save(&path).unwrap();
         REWROTE.with(|r| r.set(true));
         return;
@@ -156,26 +154,20 @@ fn mean_steps_per_ray_of_every_method_on_every_shipped_scene_match_the_record() 
     }
     assert_no_validation(&ctx);
     let path = step_counts_path();
-    if std::env::var("UPDATE_STEP_COUNTS").is_ok_and(|v| v == "1") {
-        let mut text = String::from(
-            "# Mean steps per ray (every ray spawned for a pixel, all generations) of each method on each shipped\n\
-             # scene, rendered at 64x64 at scene time 0 with the scene file's other marching settings, on lavapipe.\n\
-             # Written by: UPDATE_STEP_COUNTS=1 cargo test --release --test golden mean_steps\n\
-             # Checked to within 1% by that test (tests/golden.rs).\n\
-             scene,method,steps_per_ray\n",
-        );
-        for (scene, method, steps) in &measured {
-            text.push_str(&format!("{scene},{method},{steps:.4}\n"));
-        }
-        std::fs::write(&path, text).unwrap();
-        panic!("{} rewritten (UPDATE_STEP_COUNTS=1): look at the diff, then run again without it to check", path.display());
-    }
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e} (create it with UPDATE_STEP_COUNTS=1)", path.display()));
+    let rows: Vec<String> = measured.iter().map(|(scene, method, steps)| format!("{scene},{method},{steps:.4}")).collect();
+    let text = record(
+        &path,
+        "UPDATE_STEP_COUNTS",
+        "# Mean steps per ray (every ray spawned for a pixel, all generations) of each method on each shipped\n\
+         # scene, rendered at 64x64 at scene time 0 with the scene file's other marching settings, on lavapipe.\n\
+         # Written by: UPDATE_STEP_COUNTS=1 cargo test --release --test tests mean_steps\n\
+         # Checked to within 1% by that test (tests/golden.rs).\n\
+         scene,method,steps_per_ray\n",
+        &rows,
+    );
     let mut expected = std::collections::HashMap::new();
-    for line in text.lines().filter(|l| !l.starts_with('#') && !l.starts_with("scene,") && !l.trim().is_empty()) {
-        let fields: Vec<&str> = line.split(',').collect();
-        assert_eq!(fields.len(), 3, "{}: bad row {line:?}", path.display());
-        let steps: f64 = fields[2].parse().unwrap_or_else(|e| panic!("{}: {line:?}: {e}", path.display()));
+    for fields in record_rows(&text, &path) {
+        let steps: f64 = fields[2].parse().unwrap_or_else(|e| panic!("{}: {fields:?}: {e}", path.display()));
         expected.insert((fields[0].to_string(), fields[1].to_string()), steps);
     }
     let recorded = expected.clone();

@@ -6,12 +6,10 @@
 //! checked with the other kinds' in tests/inclusion.rs and tests/dispatch.rs,
 //! and random HRBF scenes are marched by every method in tests/marching.rs.
 
-mod common;
-
 use std::path::PathBuf;
 use std::time::Duration;
 
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use isomarch::Method;
 use isomarch::bench::{accuracy, reference_hits};
@@ -188,9 +186,8 @@ fn bad_control_points_are_one_line_errors_naming_the_problem() {
     let scene = dir.join("bad.ron");
     std::fs::write(&scene, with_points(&format!("{good}, ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))"))).unwrap();
     let out_png = dir.join("out.png");
-    let out = std::process::Command::new(bin()).args(["render", scene.to_str().unwrap(), "-o", out_png.to_str().unwrap()]).output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && stderr.contains("coincide") && stderr.trim().lines().count() == 1, "{stderr}");
+    let stderr = isomarch(["render", scene.to_str().unwrap(), "-o", out_png.to_str().unwrap()]).fails_in_one_line();
+    assert!(stderr.contains("coincide"), "{stderr}");
     assert!(!out_png.exists());
 }
 

@@ -3,9 +3,7 @@
 //! contains dense f64 samples of the field over its interval; the GPU's
 //! Taylor bounds equal the f64 closed forms.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use isomarch::Method;
 use isomarch::field::Field;
@@ -413,26 +411,20 @@ fn bound_widths_stay_at_their_recorded_tightness() {
         measured.push((name.clone(), "raa".into(), raa / queries.len() as f64, 1.0));
     }
     let path = bound_widths_path();
-    if std::env::var("UPDATE_BOUND_WIDTHS").is_ok_and(|v| v == "1") {
-        let mut text = String::from(
-            "# Mean width (relative to the largest group weight) and mean valid fraction of each inclusion method's\n\
-             # f64 bounds on a fixed set of intervals of the test scenes of tests/inclusion.rs.\n\
-             # Written by: UPDATE_BOUND_WIDTHS=1 cargo test --release --test inclusion bound_widths\n\
-             # Checked to within 2% by that test.\n\
-             scene,method,mean_width,mean_valid_fraction\n",
-        );
-        for (scene, method, width, kept) in &measured {
-            text.push_str(&format!("{scene},{method},{width:.6e},{kept:.6}\n"));
-        }
-        std::fs::write(&path, text).unwrap();
-        panic!("{} rewritten (UPDATE_BOUND_WIDTHS=1): look at the diff, then run again without it to check", path.display());
-    }
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e} (create it with UPDATE_BOUND_WIDTHS=1)", path.display()));
+    let rows: Vec<String> = measured.iter().map(|(scene, method, width, kept)| format!("{scene},{method},{width:.6e},{kept:.6}")).collect();
+    let text = record(
+        &path,
+        "UPDATE_BOUND_WIDTHS",
+        "# Mean width (relative to the largest group weight) and mean valid fraction of each inclusion method's\n\
+         # f64 bounds on a fixed set of intervals of the test scenes of tests/inclusion.rs.\n\
+         # Written by: UPDATE_BOUND_WIDTHS=1 cargo test --release --test tests bound_widths\n\
+         # Checked to within 2% by that test.\n\
+         scene,method,mean_width,mean_valid_fraction\n",
+        &rows,
+    );
     let mut expected = std::collections::HashMap::new();
-    for line in text.lines().filter(|l| !l.starts_with('#') && !l.starts_with("scene,") && !l.trim().is_empty()) {
-        let f: Vec<&str> = line.split(',').collect();
-        assert_eq!(f.len(), 4, "{}: bad row {line:?}", path.display());
-        let num = |s: &str| s.parse::<f64>().unwrap_or_else(|e| panic!("{}: {line:?}: {e}", path.display()));
+    for f in record_rows(&text, &path) {
+        let num = |s: &str| s.parse::<f64>().unwrap_or_else(|e| panic!("{}: {f:?}: {e}", path.display()));
         expected.insert((f[0].to_string(), f[1].to_string()), (num(f[2]), num(f[3])));
     }
     let mut failures = Vec::new();

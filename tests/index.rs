@@ -5,9 +5,7 @@
 //! statistics. The reference walks its own grid (src/field/grid.rs), so
 //! the two indices are independent.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use isomarch::Method;
 use isomarch::bench::{accuracy, accuracy_all, reference_crossings, reference_hits};
@@ -149,12 +147,7 @@ fn moved_primitives_rebuild_the_index() {
 #[test]
 fn an_animated_scene_matches_the_reference_at_three_times() {
     let path = scratch("index-animated").join("moving.ron");
-    let out = std::process::Command::new(bin())
-        .args(["generate", "particles", "--count", "150", "--seed", "4", "--motion", "-o"])
-        .arg(&path)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    isomarch(["generate", "particles", "--count", "150", "--seed", "4", "--motion", "-o"]).arg(&path).ok();
     let s = Scene::load(&path).unwrap();
     assert!(!s.animation.is_static() && s.primitive_count() == 150, "{} primitives", s.primitive_count());
     let ctx = gpu();
@@ -495,8 +488,10 @@ fn hollow_blobs_cancelled_by_negative_terms_are_not_bracketed() {
 /// Where the bracket holds it is used: on a molecule's shadow and
 /// occlusion rays an any-hit query that enters an atom's ball of reach is
 /// answered there, so quadratic Taylor and segment tracing take at least
-/// 5% fewer steps with it than without; every ray that hits without it hits with
-/// it, and first hits of camera rays stay the reference's.
+/// 8% fewer steps with it than without (measured: 9.5% and 10.8%); every
+/// ray that hits without it hits with it, every ray that hits only with it
+/// crosses the surface in the f64 reference, and first hits of camera rays
+/// stay the reference's.
 #[test]
 fn a_molecules_any_hit_queries_end_where_a_ray_enters_an_atoms_reach() {
     let path = repo_root().join("tests/data/molecules/1A8O.pdb");
@@ -518,11 +513,23 @@ fn a_molecules_any_hit_queries_end_where_a_ray_enters_an_atoms_reach() {
         let gained = a.iter().zip(&b).filter(|(a, b)| hit(a) && !hit(b)).count();
         assert_eq!(lost, 0, "{method}: rays hit without the bracket and not with it");
         assert!(gained * 200 <= a.len(), "{method}: {gained} of {} rays hit only with the bracket", a.len());
+        // A hit only the bracket finds must be a crossing the reference
+        // finds too, not one the bracket made up.
+        let only: Vec<GpuRay> = a.iter().zip(&b).zip(&any_hit.rays).filter(|((a, b), _)| hit(a) && !hit(b)).map(|(_, r)| *r).collect();
+        let crossed = reference_crossings(&s, &only, true, false);
+        let invented = crossed.iter().filter(|c| c.is_empty()).count();
+        assert_eq!(invented, 0, "{method}: {invented} of {} rays that hit only with the bracket cross nothing in the f64 reference", only.len());
         // The saving grows with the window: with one-cell windows of half
         // a radius (0927fac) it was 9.5% for quadratic Taylor and 10.8% for
-        // segment tracing, with windows of a radius over 10%. Without the
-        // bracket it is none.
-        assert!(20 * steps(&a) < 19 * steps(&b), "{method}: {} steps with the bracket, {} without", steps(&a), steps(&b));
+        // segment tracing, with windows of a radius over 10%; steps are
+        // deterministic, so at least 8% (without the bracket it is none).
+        assert!(
+            100 * steps(&a) <= 92 * steps(&b),
+            "{method}: {} steps with the bracket, {} without: {:.1}% saved, at least 8% expected",
+            steps(&a),
+            steps(&b),
+            100.0 * (1.0 - steps(&a) as f64 / steps(&b) as f64)
+        );
     }
     assert_first_hits(&mut renderer, &s, &camera, &[Method::QuadraticTaylor, Method::Segment, Method::Quadratic], "1A8O camera rays");
     assert_no_validation(&ctx);

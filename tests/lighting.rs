@@ -2,9 +2,7 @@
 //! forms and the f64 reference, through the binary, for every method that
 //! marches them.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use isomarch::scene::Scene;
 
@@ -18,20 +16,26 @@ const METHODS: [&str; 8] =
 /// at (0, 6, 0) over it (their supports apart, so the blob's surface is the
 /// sphere of radius 2·sqrt(1 - 0.5^(1/3))). One white light.
 fn scene_text(method: &str, sphere: bool, light: DVec3) -> String {
+    scene_with_lights(method, sphere, &[light])
+}
+
+/// [`scene_text`] with white lights from each of `lights`.
+fn scene_with_lights(method: &str, sphere: bool, lights: &[DVec3]) -> String {
     let blob = if sphere { "Point(center: (0.0, 6.0, 0.0), kernel: Compact(radius: 2.0))," } else { "" };
+    let lights: Vec<String> = lights.iter().map(|l| format!("(direction: ({}, {}, {}))", l.x, l.y, l.z)).collect();
     format!(
         r#"Scene(
     camera: (eye: (0.0, 30.0, 0.0), target: (0.0, 0.0, 0.0), up: (0.0, 0.0, -1.0), fov_y: 40.0, resolution: (128, 128)),
     background: (0.0, 0.0, 0.0),
     ambient: (0.2, 0.2, 0.2),
     surface: (0.8, 0.8, 0.8),
-    lights: [(direction: ({}, {}, {}))],
+    lights: [{}],
     iso: 0.5,
     bounds: Some((min: (-14.0, -1.5, -14.0), max: (14.0, 10.5, 14.0))),
     marching: (method: "{method}", min_step: 0.01),
     groups: [(primitives: [Plane(normal: (0.0, 1.0, 0.0), offset: 0.0, radius: 1.0), {blob}])],
 )"#,
-        light.x, light.y, light.z
+        lights.join(", ")
     )
 }
 
@@ -119,6 +123,50 @@ fn a_spheres_shadow_on_a_plane_is_its_analytic_ellipse_within_a_pixel() {
     }
 }
 
+/// Two lights, each casting the sphere's shadow on its own side: where the
+/// plane is shadowed from one light alone it is lit by exactly the other
+/// light's terms (its render alone), so a shadow that took away the wrong
+/// light's terms, or both, shows.
+#[test]
+fn a_pixel_shadowed_from_one_of_two_lights_keeps_the_others_terms() {
+    let dir = scratch("light-two");
+    let (l1, l2) = (DVec3::new(0.6, 1.0, 0.2).normalize(), DVec3::new(-0.5, 1.0, -0.4).normalize());
+    let ambient_only = 0.8 * 0.2;
+    for method in ["quadratic-taylor", "segment"] {
+        let render = |name: &str, lights: &[DVec3]| -> Vec<f32> {
+            let path = dir.join(format!("{method}-{name}.ron"));
+            std::fs::write(&path, scene_with_lights(method, true, lights)).unwrap();
+            let exr = dir.join(format!("{method}-{name}.exr"));
+            run_ok(&["render", path.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--shadows"]);
+            red(&exr)
+        };
+        let (both, first, second) = (render("both", &[l1, l2]), render("first", &[l1]), render("second", &[l2]));
+        let shadowed = |alone: &[f32], i: usize| (f64::from(alone[i]) - ambient_only).abs() < 1e-4;
+        let (mut from_first, mut from_second) = (0, 0);
+        for i in 0..both.len() {
+            let (in_first, in_second) = (shadowed(&first, i), shadowed(&second, i));
+            if in_first && !in_second {
+                from_first += 1;
+                assert!(
+                    (both[i] - second[i]).abs() < 1e-5,
+                    "{method}: pixel {i} shadowed from the first light: {} with both, {} by the second alone",
+                    both[i],
+                    second[i]
+                );
+            } else if in_second && !in_first {
+                from_second += 1;
+                assert!(
+                    (both[i] - first[i]).abs() < 1e-5,
+                    "{method}: pixel {i} shadowed from the second light: {} with both, {} by the first alone",
+                    both[i],
+                    first[i]
+                );
+            }
+        }
+        assert!(from_first > 100 && from_second > 100, "{method}: {from_first} and {from_second} pixels shadowed from one light alone");
+    }
+}
+
 #[test]
 fn at_the_foot_of_a_wall_half_the_cosine_weighted_hemisphere_is_occluded() {
     // Two slabs at a right angle, as the max of two groups (no blend at the
@@ -165,7 +213,11 @@ fn at_the_foot_of_a_wall_half_the_cosine_weighted_hemisphere_is_occluded() {
         run_ok(&["render", path.to_str().unwrap(), "-o", plain.to_str().unwrap()]);
         let n = samples.to_string();
         run_ok(&["render", path.to_str().unwrap(), "-o", lit.to_str().unwrap(), "--ao", &n, "--ao-distance", "1000"]);
-        let (plain, lit) = (red(&plain), red(&lit));
+        // Occlusion rays that look 1 unit far: the floor more than 1 from
+        // the wall's face is not occluded at all.
+        let near = dir.join(format!("{method}-ao-near.exr"));
+        run_ok(&["render", path.to_str().unwrap(), "-o", near.to_str().unwrap(), "--ao", &n, "--ao-distance", "1"]);
+        let (plain, lit, near) = (red(&plain), red(&lit), red(&near));
         // The floor column nearest the wall's face x = h: its pixel centres
         // lie delta from it, and rays towards the wall that pass over it
         // (leaving the box first) are at most (4/pi) delta / 58 of the
@@ -186,6 +238,27 @@ fn at_the_foot_of_a_wall_half_the_cosine_weighted_hemisphere_is_occluded() {
             checked += 1;
         }
         assert!(checked >= 60, "{checked} pixels checked");
+        let (mut free, mut shaded) = (0, 0);
+        for row in 2..w - 2 {
+            for col in column..w {
+                let (i, x) = (row * w + col, x0 + (col as f64 + 0.5) * pixel);
+                if x - h > 1.0 + 1e-3 {
+                    assert_eq!(
+                        near[i],
+                        plain[i],
+                        "{method}: pixel ({col}, {row}) lies {} from the wall, beyond --ao-distance 1, but is occluded",
+                        x - h
+                    );
+                    free += 1;
+                } else if col == column {
+                    // Beside the wall, most of its half of the hemisphere is within reach.
+                    let ao = f64::from(near[i]) / f64::from(plain[i]);
+                    assert!(ao < 0.65, "{method}: AO {ao} at ({col}, {row}) beside the wall with --ao-distance 1");
+                    shaded += 1;
+                }
+            }
+        }
+        assert!(free > 1000 && shaded >= 60, "{method}: {free} pixels beyond the reach, {shaded} beside the wall");
     }
 }
 
@@ -294,4 +367,56 @@ fn tradeoff_sweeps_the_any_hit_query() {
     // steps leave some of its rays unanswered, which count as errors.
     let starved = rows.iter().find(|r| r[0] == "segment" && r[1] == "0.01" && r[budget] == "32").unwrap();
     assert!(starved[oos].parse::<f64>().unwrap() > 0.0 && starved[error].parse::<f64>().unwrap() > 0.0, "{starved:?}");
+}
+
+/// What shadows and occlusion refuse, and where they do not apply: the
+/// bisection baselines refuse them in one line before any work, `--ao`
+/// and `--ao-distance` are checked, a scene file's `ao.samples` too, and a
+/// transparent scene says that it is drawn without them (its image the
+/// same as without the flags).
+#[test]
+fn shadows_and_occlusion_refuse_what_they_cannot_do_and_say_what_they_skip() {
+    let dir = scratch("light-refusals");
+    let path = dir.join("plane.ron");
+    std::fs::write(&path, scene_text("quadratic-taylor", true, DVec3::new(0.3, 1.0, 0.2).normalize())).unwrap();
+    let p = path.to_str().unwrap();
+    let png = dir.join("x.png");
+    let o = png.to_str().unwrap();
+    for method in ["raa", "linear-bisection"] {
+        for flags in [&["--shadows"][..], &["--ao", "4"][..]] {
+            let err = isomarch(["render", p, "-o", o, "--method", method]).args(flags).fails_in_one_line();
+            assert!(err.contains(&format!("{method} cannot march shadow and occlusion rays")), "{method} {flags:?}: {err}");
+            assert!(!png.exists(), "{method} {flags:?}: an image was written");
+        }
+    }
+    for (flags, says) in [
+        (&["--ao", "0"][..], "--ao must be 1 to 1024 rays per hit, got 0"),
+        (&["--ao", "1025"][..], "--ao must be 1 to 1024 rays per hit, got 1025"),
+        (&["--ao", "4", "--ao-distance", "0"][..], "--ao-distance must be positive, got 0"),
+        (&["--ao", "4", "--ao-distance=-2"][..], "--ao-distance must be positive, got -2"),
+    ] {
+        let err = isomarch(["render", p, "-o", o]).args(flags).fails_in_one_line();
+        assert!(err.contains(says), "{flags:?}: {err}");
+    }
+    for (samples, ok) in [(0, false), (1, true), (1024, true), (1025, false)] {
+        let file = dir.join(format!("ao{samples}.ron"));
+        let text = scene_text("quadratic-taylor", true, DVec3::Y)
+            .replace("iso: 0.5,", &format!("iso: 0.5,\n    ao: Some((samples: {samples}, distance: 2.0)),"));
+        std::fs::write(&file, text).unwrap();
+        let run = isomarch(["render", file.to_str().unwrap(), "-o", o, "--size", "8x8"]);
+        if ok {
+            run.ok();
+        } else {
+            let err = run.fails_in_one_line();
+            assert!(err.contains("ao.samples") && err.contains(&format!("got {samples}")), "{err}");
+        }
+    }
+    // fig17 is transparent: the flags change nothing, and a line says so.
+    let fig17 = repo_root().join("scenes/fig17.ron");
+    let (plain, lit) = (dir.join("fig17.png"), dir.join("fig17-lit.png"));
+    isomarch(["render", fig17.to_str().unwrap(), "-o", plain.to_str().unwrap(), "--size", "48x48"]).ok();
+    let out = isomarch(["render", fig17.to_str().unwrap(), "-o", lit.to_str().unwrap(), "--size", "48x48", "--shadows", "--ao", "4"]).ok();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("is transparent, and transparent surfaces are drawn without shadows and ambient occlusion"), "{stderr}");
+    assert!(std::fs::read(&plain).unwrap() == std::fs::read(&lit).unwrap(), "shadows changed a transparent image");
 }

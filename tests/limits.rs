@@ -3,9 +3,7 @@
 //! fills the per-dispatch loop budget (one turn per slice), with bisection
 //! and four lights, against the f64 reference.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use isomarch::Method;
 use isomarch::bench::{accuracy, reference_hits};
@@ -85,8 +83,7 @@ fn the_largest_flat_scene_marches_at_the_loop_budget_limit() {
     let reference = reference_hits(&s, &rays, false);
     let hits = reference.iter().filter(|r| r.is_some()).count();
     assert!(hits >= 6, "only {hits} of 12 rays hit");
-    let mut renderer = Renderer::new(&ctx, &s).unwrap();
-    renderer.timeout = std::time::Duration::from_secs(600);
+    let mut renderer = Renderer::with_timeout(&ctx, &s, std::time::Duration::from_secs(600)).unwrap();
     let tol = 2.0 * s.refine_tolerance() + 2e-6 * s.bounds.diagonal();
     for method in [Method::LinearBisection, Method::QuadraticTaylor] {
         // Shaded: the four lights are in every slice's budget.

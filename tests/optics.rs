@@ -3,9 +3,7 @@
 //! sphere: Fresnel at both interfaces, Beer-Lambert over the chord, and the
 //! `max_depth` cut-off, for rays at two heights.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use isomarch::Method;
 use isomarch::render::optics::{Dielectric, environment, trace};

@@ -1,9 +1,7 @@
 //! Scenes with planes, marched: a slab alone against its closed form, and
 //! slabs with blobs (sum and max of groups) against the f64 reference.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use isomarch::Method;
 use isomarch::bench::reference_hits;

@@ -1,22 +1,13 @@
 //! Refinement of crossings: secant refinement against bisection through
 //! `bench`, which also checks `--repeat`'s statistics.
 
-mod common;
-
-use common::{bin, repo_root, scratch};
+use crate::common::{isomarch, repo_root, scratch};
 use serde_json::Value;
 
 /// `isomarch bench SCENE --json` with `args`; the report.
 fn bench(scene: &str, args: &[&str], name: &str) -> Value {
     let json = scratch(name).join("bench.json");
-    let run = std::process::Command::new(bin())
-        .args(["bench", scene, "--rays", "8192", "--json"])
-        .arg(&json)
-        .args(args)
-        .current_dir(repo_root())
-        .output()
-        .unwrap();
-    assert!(run.status.success(), "bench {scene} {args:?}: {}", String::from_utf8_lossy(&run.stderr));
+    isomarch(["bench", scene, "--rays", "8192", "--json"]).arg(&json).args(args).current_dir(repo_root()).ok();
     serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap()
 }
 
@@ -99,8 +90,6 @@ fn bench_repeat_reports_medians_and_ranges() {
         }
     }
     // A repeat count of 0 is refused in one line.
-    let run = std::process::Command::new(bin()).args(["bench", "scenes/fig10.ron", "--repeat", "0"]).current_dir(repo_root()).output().unwrap();
-    assert!(!run.status.success());
-    let err = String::from_utf8_lossy(&run.stderr);
-    assert!(err.contains("--repeat must be at least 1") && err.trim().lines().count() == 1, "{err}");
+    let err = isomarch(["bench", "scenes/fig10.ron", "--repeat", "0"]).current_dir(repo_root()).fails_in_one_line();
+    assert!(err.contains("--repeat must be at least 1"), "{err}");
 }

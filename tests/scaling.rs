@@ -3,23 +3,16 @@
 //! headed by its command line, and a plot that decodes and is not blank;
 //! bad arguments are refused in one line before anything is written.
 
-mod common;
-
-use std::process::Command;
-
-use common::{bin, scratch};
+use crate::common::{isomarch, scratch};
 
 #[test]
 fn a_small_sweep_writes_its_table_csv_and_plot() {
     let dir = scratch("scaling");
-    let out = Command::new(bin())
-        .args(["scaling", "--counts", "100,300", "--rays", "512", "--repeat", "2", "-o"])
+    let out = isomarch(["scaling", "--counts", "100,300", "--rays", "512", "--repeat", "2", "-o"])
         .arg(&dir)
         .args(["--validation", "--timeout", "300"])
-        .output()
-        .unwrap();
+        .ok();
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "scaling failed:\n{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
 
     let text = std::fs::read_to_string(dir.join("scaling.csv")).unwrap();
     let mut lines = text.lines();
@@ -95,12 +88,28 @@ fn bad_arguments_are_refused_in_one_line() {
         (&["--rays", "0"][..], "--rays"),
         (&["--repeat", "0"][..], "--repeat"),
     ] {
-        let out = Command::new(bin()).arg("scaling").args(args).arg("-o").arg(dir.join("out")).output().unwrap();
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "{args:?} was accepted");
-        assert_eq!(stderr.trim_end().lines().count(), 1, "{args:?}: one line: {stderr}");
+        let (stderr, stdout) = isomarch(["scaling"]).args(args).arg("-o").arg(dir.join("out")).fails_in_one_line_and_stdout();
         assert!(stderr.starts_with("error: ") && stderr.contains(expect), "{args:?}: {stderr}");
-        assert!(out.stdout.is_empty());
+        assert!(stdout.is_empty(), "{args:?}: {stdout}");
     }
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
+}
+
+/// `--ray-seed` picks the protocol rays: the same seed measures the same
+/// counts, another seed other rays (and `--seed`, the scene, stays).
+#[test]
+fn the_ray_seed_picks_the_rays_and_repeats_them() {
+    let dir = scratch("scaling-seed");
+    let sweep = |seed: &str, name: &str| -> (f64, f64) {
+        let out = dir.join(name);
+        isomarch(["scaling", "--counts", "100", "--methods", "segment", "--rays", "256", "--repeat", "1", "--ray-seed", seed, "-o"]).arg(&out).ok();
+        let text = std::fs::read_to_string(out.join("scaling.csv")).unwrap();
+        let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+        let row: Vec<&str> = text.lines().nth(1).unwrap().split(',').collect();
+        let num = |c: &str| row[header.iter().position(|h| *h == c).unwrap()].parse::<f64>().unwrap();
+        (num("reference_hit_rate"), num("steps_per_ray"))
+    };
+    let (a, again, other) = (sweep("7", "a"), sweep("7", "b"), sweep("8", "c"));
+    assert_eq!(a, again, "the same --ray-seed measured other counts");
+    assert_ne!(a, other, "--ray-seed 7 and 8 measured the same rays");
 }

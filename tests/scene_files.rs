@@ -2,9 +2,7 @@
 //! they were built from (tests/data/benchmarks, provenance in its README;
 //! the scenes are described in docs/benchmark-protocol.md).
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use isomarch::scene::{Kernel, Primitive, Scene};
 

@@ -1,11 +1,7 @@
 //! Bad scene input: a one-line error naming the file and field, a non-zero
 //! exit, no panic and no output file.
 
-mod common;
-
-use std::process::Command;
-
-use common::*;
+use crate::common::*;
 use isomarch::scene::Scene;
 
 const GOOD: &str = r#"Scene(
@@ -101,16 +97,12 @@ fn the_binary_fails_cleanly_and_writes_nothing() {
         let scene = dir.join(format!("{name}.ron"));
         std::fs::write(&scene, text).unwrap();
         let out = dir.join(format!("{name}.png"));
-        let run = Command::new(bin()).arg("render").arg(&scene).arg("-o").arg(&out).output().unwrap();
-        let stderr = String::from_utf8_lossy(&run.stderr);
-        assert!(!run.status.success(), "{name}: exit status {}", run.status);
-        assert_eq!(run.status.code(), Some(1), "{name}: {stderr}");
+        let stderr = isomarch(["render"]).arg(&scene).arg("-o").arg(&out).fails_in_one_line();
         assert!(!stderr.contains("panicked"), "{name}: panicked: {stderr}");
-        assert_eq!(stderr.trim().lines().count(), 1, "{name}: not one line: {stderr}");
         assert!(stderr.contains(&scene.display().to_string()), "{name}: file not named: {stderr}");
         assert!(!out.exists(), "{name}: an output file was written");
     }
-    let missing = Command::new(bin()).args(["render", "/nonexistent.ron", "-o"]).arg(dir.join("x.png")).output().unwrap();
+    let missing = isomarch(["render", "/nonexistent.ron", "-o"]).arg(dir.join("x.png")).output();
     assert_eq!(missing.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&missing.stderr);
     assert!(stderr.starts_with("error: /nonexistent.ron: cannot read: ") && !stderr.contains("(file)"), "{stderr}");
@@ -134,7 +126,7 @@ fn type_errors_name_the_formats_words_not_the_readers_types() {
     for (name, text, word) in cases {
         let scene = dir.join(format!("{name}.ron"));
         std::fs::write(&scene, text).unwrap();
-        let run = Command::new(bin()).arg("render").arg(&scene).arg("-o").arg(dir.join("x.png")).output().unwrap();
+        let run = isomarch(["render"]).arg(&scene).arg("-o").arg(dir.join("x.png")).output();
         let stderr = String::from_utf8_lossy(&run.stderr);
         assert_eq!(run.status.code(), Some(1), "{name}: {stderr}");
         assert!(stderr.contains(&format!("`{word}`")) || stderr.contains(&format!("'{word}'")), "{name}: does not name {word}: {stderr}");
@@ -146,7 +138,7 @@ fn type_errors_name_the_formats_words_not_the_readers_types() {
 /// make one, rather than what RON's parser found in a PDB.
 #[test]
 fn tradeoff_given_a_molecule_says_it_takes_scene_files() {
-    let out = Command::new(bin()).args(["tradeoff", "tests/data/molecules/1A8O.pdb", "--quick"]).current_dir(repo_root()).output().unwrap();
+    let out = isomarch(["tradeoff", "tests/data/molecules/1A8O.pdb", "--quick"]).current_dir(repo_root()).output();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("tradeoff takes a scene file (.ron)") && stderr.contains("isomarch scene tests/data/molecules/1A8O.pdb -o"), "{stderr}");
@@ -160,27 +152,17 @@ fn tradeoff_given_a_molecule_says_it_takes_scene_files() {
 fn the_command_line_refuses_what_it_cannot_do_and_makes_what_it_can() {
     let dir = scratch("cli-paths");
     let scene = repo_root().join("scenes/default.ron");
-    let view = Command::new(bin())
-        .arg("view")
-        .arg(&scene)
-        .env_remove("DISPLAY")
-        .env_remove("WAYLAND_DISPLAY")
-        .env_remove("WAYLAND_SOCKET")
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&view.stderr);
-    assert_eq!(view.status.code(), Some(1), "view without a display: {stderr}");
-    assert!(stderr.trim().lines().count() == 1 && stderr.contains("no display") && stderr.contains("Xvfb"), "view without a display: {stderr}");
+    let stderr = isomarch(["view"]).arg(&scene).env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY").env_remove("WAYLAND_SOCKET").fails_in_one_line();
+    assert!(stderr.contains("no display") && stderr.contains("Xvfb"), "view without a display: {stderr}");
     // winit's own source location is not the user's business.
     assert!(!stderr.contains(".cargo") && !stderr.contains(".rs:"), "view without a display names a source file: {stderr}");
-    let zero = Command::new(bin()).arg("render").arg(&scene).arg("-o").arg(dir.join("zero.png")).args(["--size", "0x0"]).output().unwrap();
+    let zero = isomarch(["render"]).arg(&scene).arg("-o").arg(dir.join("zero.png")).args(["--size", "0x0"]).output();
     let stderr = String::from_utf8_lossy(&zero.stderr);
     assert_eq!(zero.status.code(), Some(2), "--size 0x0: {stderr}");
     assert!(stderr.contains("'0x0'") && stderr.contains("1..=16384"), "--size 0x0: {stderr}");
     assert!(!dir.join("zero.png").exists());
     let nested = dir.join("not").join("yet").join("made.png");
-    let made = Command::new(bin()).arg("render").arg(&scene).arg("-o").arg(&nested).args(["--size", "16x16"]).output().unwrap();
-    assert!(made.status.success(), "an output directory that does not exist: {}", String::from_utf8_lossy(&made.stderr));
+    isomarch(["render"]).arg(&scene).arg("-o").arg(&nested).args(["--size", "16x16"]).ok();
     assert_eq!(image::open(&nested).unwrap().to_rgb8().dimensions(), (16, 16));
 }
 

@@ -168,14 +168,9 @@ fn csv_frames(csv: &Path) -> Vec<u64> {
     text.lines().skip(1).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect()
 }
 
-/// `isomarch merge-stats --frames RANGE -o OUT` over the four task CSVs.
-fn merge(dir: &Path, range: &str, tasks: &[u64], out: &Path) -> Output {
-    let mut cmd = Command::new(bin());
-    cmd.args(["merge-stats", "--frames", range, "-o"]).arg(out);
-    for t in tasks {
-        cmd.arg(dir.join(format!("frames-task-{t}.csv")));
-    }
-    cmd.output().unwrap()
+/// `isomarch merge-stats --frames RANGE -o OUT` over the tasks' CSVs, to run.
+fn merge(dir: &Path, range: &str, tasks: &[u64], out: &Path) -> Isomarch {
+    isomarch(["merge-stats", "--frames", range, "-o"]).arg(out).args(tasks.iter().map(|t| dir.join(format!("frames-task-{t}.csv"))))
 }
 
 fn assert_all_completed(tasks: &Tasks, ids: &[u64], dir: &Path) {
@@ -207,17 +202,14 @@ fn an_array_job_renders_every_frame_exactly_once(cluster: &Cluster) {
         assert_eq!(listed, (0..24).filter(|f| f % 4 == t).collect::<Vec<_>>(), "task {t}'s frames");
     }
     let merged = dir.join("frames.csv");
-    let out = merge(&dir, "0..24", &[0, 1, 2, 3], &merged);
-    assert!(out.status.success(), "merge-stats: {}", text(&out.stderr));
+    merge(&dir, "0..24", &[0, 1, 2, 3], &merged).ok();
     let text_merged = std::fs::read_to_string(&merged).unwrap();
     assert!(text_merged.starts_with(isomarch::batch::CSV_HEADER), "header");
     assert_eq!(csv_frames(&merged), (0..24).collect::<Vec<_>>(), "24 rows, in frame order");
     // Without task 2's CSV, six frames are missing: refused, nothing written.
     let partial = dir.join("partial.csv");
-    let out = merge(&dir, "0..24", &[0, 1, 3], &partial);
-    assert!(!out.status.success(), "a merge with frames missing must fail");
-    let err = text(&out.stderr);
-    assert!(err.contains("6 frame(s) missing (2, 6, 10, 14, 18, and 1 more)") && err.trim().lines().count() == 1, "{err}");
+    let err = merge(&dir, "0..24", &[0, 1, 3], &partial).fails_in_one_line();
+    assert!(err.contains("6 frame(s) missing (2, 6, 10, 14, 18, and 1 more)"), "{err}");
     assert!(!partial.exists(), "a failed merge wrote {}", partial.display());
 }
 
@@ -264,8 +256,7 @@ fn a_resubmitted_array_finishes_what_a_cancelled_task_left(cluster: &Cluster) {
     }
     // The statistics list each frame once: every frame was written once.
     let merged = dir.join("frames.csv");
-    let out = merge(&dir, range, &[0, 1, 2, 3], &merged);
-    assert!(out.status.success(), "merge-stats after the resubmission: {}", text(&out.stderr));
+    merge(&dir, range, &[0, 1, 2, 3], &merged).ok();
     assert_eq!(csv_frames(&merged), (0..frames).collect::<Vec<_>>());
     let resumed = csv_frames(&dir.join("frames-task-1.csv"));
     assert_eq!(resumed.len(), task1.len(), "task 1's CSV: the cancelled run's rows, then the resubmission's");

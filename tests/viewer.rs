@@ -7,7 +7,7 @@ use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
 
-use common::{bin, repo_root, scratch};
+use common::{Isomarch, isomarch, repo_root, scratch};
 
 /// An X server of its own for one test, gone when dropped. The tests take
 /// turns: X servers started at the same moment with -displayfd were seen
@@ -63,19 +63,17 @@ impl Drop for Xvfb {
 }
 
 /// `isomarch view ARGS` with validation, in `x`'s display.
-fn view_command(x: &Xvfb, args: &[&str]) -> Command {
-    let mut c = Command::new(bin());
-    c.arg("view")
+fn view_command(x: &Xvfb, args: &[&str]) -> Isomarch {
+    isomarch(["view"])
         .args(args)
         .args(["--validation", "--timeout", "300"])
         .current_dir(repo_root())
         .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY");
-    c
+        .env_remove("WAYLAND_DISPLAY")
 }
 
 fn view(x: &Xvfb, args: &[&str]) -> Output {
-    view_command(x, args).output().unwrap()
+    view_command(x, args).output()
 }
 
 /// Distinct colours in a PNG of `size`.
@@ -132,12 +130,7 @@ fn a_screenshot_of_a_still_view_waits_for_the_full_frame() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains(&format!("saved {}", shot.display())) && !stderr.contains("preview"), "{stderr}");
     let png = dir.join("render.png");
-    let rendered = Command::new(bin())
-        .args(["render", "scenes/fig10.ron", "--size", "96x80", "-o", png.to_str().unwrap()])
-        .current_dir(repo_root())
-        .output()
-        .unwrap();
-    assert!(rendered.status.success(), "{}", String::from_utf8_lossy(&rendered.stderr));
+    isomarch(["render", "scenes/fig10.ron", "--size", "96x80", "-o", png.to_str().unwrap()]).current_dir(repo_root()).ok();
     let (shown, want) = (image::open(&shot).unwrap().to_rgb8(), image::open(&png).unwrap().to_rgb8());
     assert!(shown == want, "the screenshot is not the frame render makes");
     // A playing animation shows previews: its screenshot says it is one.
@@ -167,9 +160,7 @@ fn the_viewer_plays_ten_thousand_moving_blobs() {
     // index rebuilt for every frame, played under Xvfb.
     let dir = scratch("viewer-particles");
     let scene = dir.join("particles.ron");
-    let generated =
-        Command::new(bin()).args(["generate", "particles", "--count", "10000", "--seed", "1", "--motion", "-o"]).arg(&scene).output().unwrap();
-    assert!(generated.status.success(), "generate failed:\n{}", String::from_utf8_lossy(&generated.stderr));
+    isomarch(["generate", "particles", "--count", "10000", "--seed", "1", "--motion", "-o"]).arg(&scene).ok();
     let x = Xvfb::start();
     let mut shots = Vec::new();
     // Two starting times: the blobs move between them.
@@ -298,7 +289,7 @@ struct Session {
 impl Session {
     fn open(args: &[&str]) -> Session {
         let x = Xvfb::start();
-        let mut child = view_command(&x, args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        let mut child = view_command(&x, args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn();
         let started = std::time::Instant::now();
         let window = loop {
             let out = xdotool(&x, &["search", "--name", "^isomarch"]);
@@ -378,17 +369,7 @@ impl Session {
 
 /// `isomarch render` of `scene` offscreen.
 fn render(scene: &Path, out: &Path, args: &[&str]) -> image::RgbImage {
-    let rendered = Command::new(bin())
-        .arg("render")
-        .arg(scene)
-        .arg("-o")
-        .arg(out)
-        .args(args)
-        .args(["--validation", "--timeout", "300"])
-        .current_dir(repo_root())
-        .output()
-        .unwrap();
-    assert!(rendered.status.success(), "render failed:\n{}", String::from_utf8_lossy(&rendered.stderr));
+    isomarch(["render"]).arg(scene).arg("-o").arg(out).args(args).args(["--validation", "--timeout", "300"]).current_dir(repo_root()).ok();
     image::open(out).unwrap().to_rgb8()
 }
 
@@ -427,9 +408,7 @@ fn a_paused_viewer_shows_the_frame_render_makes_at_its_time() {
     // differs, so the time is what is compared.
     let dir = scratch("viewer-paused-moving");
     let scene = dir.join("moving.ron");
-    let generated =
-        Command::new(bin()).args(["generate", "particles", "--count", "150", "--seed", "4", "--motion", "-o"]).arg(&scene).output().unwrap();
-    assert!(generated.status.success(), "generate failed:\n{}", String::from_utf8_lossy(&generated.stderr));
+    isomarch(["generate", "particles", "--count", "150", "--seed", "4", "--motion", "-o"]).arg(&scene).ok();
     let s = Session::open(&[scene.to_str().unwrap(), "--size", "64x64", "--paused", "--time", "1.5"]);
     let (title, shown) = s.settled();
     s.close();
@@ -559,6 +538,20 @@ fn a_trajectory_plays_through_with_memory_that_does_not_grow() {
     // not tested.
     let ((peak1, end1), (peak3, end3)) = (memory[0], memory[1]);
     assert!(peak3 <= peak1 + 15.0, "memory grew with the frames played: peak {peak1} -> {peak3} MiB (at the end {end1} -> {end3} MiB)");
+    // A cache of every decoded frame is full after one loop of 5: the 98
+    // frames of the AdK DCD played through once against the same
+    // trajectory shown paused on its first frame (the topology and the
+    // decoder's few frames ahead). Each frame's scene is about 0.4 MiB
+    // with hydrogens (3,341 atoms), so keeping them all takes some 40 MiB.
+    let (top, traj) = ("tests/data/trajectories/adk.psf", "tests/data/trajectories/adk_dims.dcd");
+    let out = view(&x, &[top, traj, "--hydrogens", "--every-frame", "--loops", "1", "--size", "48x48"]);
+    assert_clean(&out, 98);
+    let (shown, played, _) = playback(&out);
+    assert_eq!(shown, 98, "every frame of the AdK DCD once");
+    let out = view(&x, &[top, traj, "--hydrogens", "--paused", "--exit-after", "3", "--size", "48x48"]);
+    assert_clean(&out, 3);
+    let (_, still, _) = playback(&out);
+    assert!(played <= still + 15.0, "playing 98 frames peaked at {played} MiB, the paused first frame at {still} MiB");
 }
 
 #[test]
@@ -566,16 +559,29 @@ fn at_rest_the_viewer_accumulates_the_anti_aliased_frame_render_makes() {
     let x = Xvfb::start();
     let dir = scratch("viewer-samples");
     let shot = dir.join("view.png");
-    let out = view(&x, &["scenes/fig10.ron", "--size", "64x48", "--samples", "4", "--exit-after", "40", "--screenshot", shot.to_str().unwrap()]);
+    // A preview budget no frame of this size exceeds: each pass is marched
+    // whole at full resolution, whatever the machine's speed (the pieces
+    // are otherwise sized by the wall time measured).
+    let out = view(
+        &x,
+        &[
+            "scenes/fig10.ron",
+            "--size",
+            "64x48",
+            "--samples",
+            "4",
+            "--preview-ms",
+            "600000",
+            "--exit-after",
+            "40",
+            "--screenshot",
+            shot.to_str().unwrap(),
+        ],
+    );
     assert_clean(&out, 40);
     let rendered = |n: &str| {
         let png = dir.join(format!("render-{n}.png"));
-        let out = Command::new(bin())
-            .args(["render", "scenes/fig10.ron", "--size", "64x48", "--samples", n, "-o", png.to_str().unwrap()])
-            .current_dir(repo_root())
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        isomarch(["render", "scenes/fig10.ron", "--size", "64x48", "--samples", n, "-o", png.to_str().unwrap()]).current_dir(repo_root()).ok();
         image::open(png).unwrap().to_rgb8()
     };
     let (shown, four, one) = (image::open(&shot).unwrap().to_rgb8(), rendered("4"), rendered("1"));

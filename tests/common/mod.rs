@@ -1,7 +1,9 @@
 //! Fixtures shared by the integration tests.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::ffi::OsStr;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
 use std::sync::Arc;
 
 use glam::DVec3;
@@ -35,16 +37,213 @@ pub fn bin() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_isomarch"))
 }
 
+/// The isomarch binary with `args`, to run once:
+/// `isomarch(["render", ...]).arg(path).env(..).current_dir(..)`, then
+/// - `.ok()`: it succeeds (else the test fails showing the command, its
+///   stderr and stdout); its output;
+/// - `.fails_in_one_line()`: a refusal, exit status 1 (not success, not a
+///   usage error's 2, not a panic's 101), and stderr exactly one non-empty
+///   line; that line;
+/// - `.fails()`: it fails, without a panic; its stderr;
+/// - `.output()` or `.spawn()`, for tests that look at the rest themselves.
+pub fn isomarch<I, S>(args: I) -> Isomarch
+where
+    I: IntoIterator<Item = S>,
+    S: AsRef<OsStr>,
+{
+    Isomarch { command: Command::new(bin()) }.args(args)
+}
+
+/// A run of the binary being set up: see [`isomarch`].
+#[must_use = "run it: .ok(), .fails_in_one_line(), .fails(), .output() or .spawn()"]
+pub struct Isomarch {
+    command: Command,
+}
+
+impl Isomarch {
+    pub fn arg(mut self, arg: impl AsRef<OsStr>) -> Self {
+        self.command.arg(arg);
+        self
+    }
+
+    pub fn args<I, S>(mut self, args: I) -> Self
+    where
+        I: IntoIterator<Item = S>,
+        S: AsRef<OsStr>,
+    {
+        self.command.args(args);
+        self
+    }
+
+    pub fn env(mut self, key: impl AsRef<OsStr>, value: impl AsRef<OsStr>) -> Self {
+        self.command.env(key, value);
+        self
+    }
+
+    pub fn envs<I, K, V>(mut self, vars: I) -> Self
+    where
+        I: IntoIterator<Item = (K, V)>,
+        K: AsRef<OsStr>,
+        V: AsRef<OsStr>,
+    {
+        self.command.envs(vars);
+        self
+    }
+
+    pub fn env_remove(mut self, key: impl AsRef<OsStr>) -> Self {
+        self.command.env_remove(key);
+        self
+    }
+
+    pub fn current_dir(mut self, dir: impl AsRef<Path>) -> Self {
+        self.command.current_dir(dir);
+        self
+    }
+
+    pub fn stdin(mut self, cfg: impl Into<Stdio>) -> Self {
+        self.command.stdin(cfg);
+        self
+    }
+
+    pub fn stdout(mut self, cfg: impl Into<Stdio>) -> Self {
+        self.command.stdout(cfg);
+        self
+    }
+
+    pub fn stderr(mut self, cfg: impl Into<Stdio>) -> Self {
+        self.command.stderr(cfg);
+        self
+    }
+
+    /// The command as the failures show it: its folder and environment
+    /// when set, then `isomarch` and its arguments.
+    fn shown(&self) -> String {
+        let mut words = Vec::new();
+        if let Some(dir) = self.command.get_current_dir() {
+            words.push(format!("(in {})", dir.display()));
+        }
+        for (key, value) in self.command.get_envs() {
+            let key = key.to_string_lossy();
+            words.push(match value {
+                Some(value) => format!("{key}={}", value.to_string_lossy()),
+                None => format!("(without {key})"),
+            });
+        }
+        words.push("isomarch".to_string());
+        for arg in self.command.get_args() {
+            let arg = arg.to_string_lossy();
+            let plain = !arg.is_empty() && !arg.contains(|c: char| c.is_whitespace() || c == '"' || c == '\'');
+            words.push(if plain { arg.into_owned() } else { format!("{arg:?}") });
+        }
+        words.join(" ")
+    }
+
+    /// Runs it to the end; its output, whatever its exit status.
+    pub fn output(mut self) -> Output {
+        let shown = self.shown();
+        self.command.output().unwrap_or_else(|e| panic!("running {shown}: {e}"))
+    }
+
+    /// Starts it.
+    pub fn spawn(mut self) -> Child {
+        let shown = self.shown();
+        self.command.spawn().unwrap_or_else(|e| panic!("starting {shown}: {e}"))
+    }
+
+    /// Runs it and fails the test unless it succeeds; its output.
+    pub fn ok(self) -> Output {
+        let shown = self.shown();
+        let out = self.output();
+        if !out.status.success() {
+            let stdout = String::from_utf8_lossy(&out.stdout);
+            let stdout = if stdout.is_empty() { String::new() } else { format!("\nstdout:\n{stdout}") };
+            panic!("{shown} failed ({}):\n{}{stdout}", out.status, String::from_utf8_lossy(&out.stderr));
+        }
+        out
+    }
+
+    /// Runs it and fails the test unless it fails without a panic (any
+    /// exit status but 0 and 101); its stderr.
+    pub fn fails(self) -> String {
+        let shown = self.shown();
+        let out = self.output();
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(!out.status.success(), "{shown} was accepted:\n{stderr}");
+        assert_ne!(out.status.code(), Some(101), "{shown} panicked:\n{stderr}");
+        stderr
+    }
+
+    /// Runs it and fails the test unless it is refused: exit status 1 (a
+    /// usage error exits 2, a panic 101) and stderr exactly one non-empty
+    /// line; that line.
+    pub fn fails_in_one_line(self) -> String {
+        self.fails_in_one_line_and_stdout().0
+    }
+
+    /// [`Isomarch::fails_in_one_line`], and what it wrote to stdout.
+    pub fn fails_in_one_line_and_stdout(self) -> (String, String) {
+        let shown = self.shown();
+        let out = self.output();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{shown} was accepted:\n{stderr}");
+        assert_eq!(out.status.code(), Some(1), "{shown}: exit status {}, not a refusal's 1:\n{stderr}", out.status);
+        let lines: Vec<&str> = stderr.lines().collect();
+        assert!(lines.len() == 1 && !lines[0].trim().is_empty(), "{shown}: stderr is not one line:\n{stderr}");
+        (lines[0].to_string(), String::from_utf8_lossy(&out.stdout).into_owned())
+    }
+}
+
 /// Runs the binary with `args`, validation on and a generous deadline;
 /// fails the test when it fails.
-pub fn run_ok(args: &[&str]) -> std::process::Output {
-    let out = std::process::Command::new(bin()).args(args).args(["--validation", "--timeout", "300"]).output().unwrap();
-    assert!(out.status.success(), "{args:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
-    out
+pub fn run_ok(args: &[&str]) -> Output {
+    isomarch(args).args(["--validation", "--timeout", "300"]).ok()
+}
+
+/// Whether a test rewrites its record (`VAR=1`) rather than checking it.
+pub fn rewriting(var: &str) -> bool {
+    std::env::var(var).is_ok_and(|v| v == "1")
+}
+
+/// A record of measurements kept in the repository (a CSV under
+/// tests/data) that a test checks its measurements against. Under
+/// `var=1` (see [`rewriting`]) it writes `header` (its comment lines and
+/// its column line, each ending in a newline) and then `rows` (one line
+/// each, without the newline) to `path`, and fails the test, so that a run
+/// that rewrites a record never passes for one that checked it. Otherwise
+/// the record's text, whose column line must be `header`'s.
+pub fn record(path: &Path, var: &str, header: &str, rows: &[String]) -> String {
+    if rewriting(var) {
+        let mut text = header.to_string();
+        for row in rows {
+            text.push_str(row);
+            text.push('\n');
+        }
+        std::fs::write(path, text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        panic!("{} rewritten ({var}=1): look at the diff, then run again without it to check", path.display());
+    }
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e} (create it with {var}=1)", path.display()));
+    let columns = |t: &str| t.lines().find(|l| !l.starts_with('#') && !l.trim().is_empty()).map(str::to_string);
+    assert_eq!(columns(text.as_str()), columns(header), "{}: not the columns this test writes (rewrite it with {var}=1)", path.display());
+    text
+}
+
+/// The rows of a record's text, each split at its commas: the lines that
+/// are not comments (`#`), not blank and not the column line (the first of
+/// the others). Every row has as many fields as the column line.
+pub fn record_rows<'a>(text: &'a str, path: &Path) -> Vec<Vec<&'a str>> {
+    let mut lines = text.lines().filter(|l| !l.starts_with('#') && !l.trim().is_empty());
+    let columns = lines.next().unwrap_or_else(|| panic!("{}: no column line", path.display())).split(',').count();
+    lines
+        .map(|line| {
+            let fields: Vec<&str> = line.split(',').collect();
+            assert_eq!(fields.len(), columns, "{}: bad row {line:?}", path.display());
+            fields
+        })
+        .collect()
 }
 
 /// A JSON file the binary wrote.
-pub fn json(path: &std::path::Path) -> serde_json::Value {
+pub fn json(path: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
