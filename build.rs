@@ -1,6 +1,7 @@
 //! Compiles `shaders/*.comp` to SPIR-V with shaderc (glslang).
 //!
-//! Includes resolve against `shaders/include/` and the generated
+//! Includes resolve against `shaders/include/` (a kind's file by its path
+//! there, `kinds/hrbf.glsl`) and the generated
 //! `layout.glsl` and `layout_bindings.glsl` (from `src/layout.rs`, the
 //! single source of GPU layouts and descriptor bindings).
 //! Warnings are errors; a shader error fails the build with glslang's
@@ -24,18 +25,21 @@ fn run() -> Result<(), String> {
     let out = PathBuf::from(std::env::var("OUT_DIR").map_err(|e| e.to_string())?);
     let shaders = root.join("shaders");
     let include_dir = shaders.join("include");
+    // The primitive kinds, one file each (shaders/include/kinds.glsl).
+    let kinds_dir = include_dir.join("kinds");
     println!("cargo:rerun-if-changed=src/layout.rs");
     say_which_shaderc();
     // Directories themselves, so that adding a shader file reruns the build.
     println!("cargo:rerun-if-changed={}", shaders.display());
     println!("cargo:rerun-if-changed={}", include_dir.display());
+    println!("cargo:rerun-if-changed={}", kinds_dir.display());
 
     let generated = layout::glsl();
     std::fs::write(out.join("layout.glsl"), &generated).map_err(|e| format!("writing layout.glsl: {e}"))?;
     let bindings = layout::glsl_bindings_file();
     std::fs::write(out.join("layout_bindings.glsl"), &bindings).map_err(|e| format!("writing layout_bindings.glsl: {e}"))?;
 
-    for file in sorted_files(&include_dir, "glsl")? {
+    for file in sorted_files(&include_dir, "glsl")?.into_iter().chain(sorted_files(&kinds_dir, "glsl")?) {
         println!("cargo:rerun-if-changed={}", file.display());
     }
 

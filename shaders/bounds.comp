@@ -6,7 +6,7 @@
 
 #define BOUNDS_PROBE 1
 #include "bindings.glsl"
-#include "traverse.glsl"
+#include "field.glsl"
 #include "inversion.glsl"
 
 layout(local_size_x = 64) in;

@@ -48,7 +48,7 @@ void main() {
     if ((m.flags & FLAG_DONE) == 0u) cull_to_ray(o, u, from, ray.d.w);
     // One step or one evaluation of a refinement per turn (slice_steps
     // turns). A transparent march records the turn's crossings after it,
-    // and leaves the loop to shade one there (marchers.glsl, on_crossing):
+    // and leaves the loop to shade one there (crossings.glsl, on_crossing):
     // lavapipe runs every branch of the loop's body each turn, taken or
     // not, so code that few turns need is kept out of it.
     uint k = 0u;

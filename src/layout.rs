@@ -226,7 +226,7 @@ pub const SPEC_CONSTANTS: &[(u32, &str)] = &[
 /// pipeline take seconds (docs/performance.md).
 const VARIANT_CONSTANT: &str = "SC_INDEX";
 /// `SC_BRACKET`, the first-crossing bracket and per-ray candidates
-/// (shaders/include/traverse.glsl), is a build variant too
+/// (shaders/include/fold.glsl), is a build variant too
 /// (`march_bracket.spv`, `ISOMARCH_BRACKET`: the index, point kernels
 /// only): as a constant its code made the indexed kernel's SPIR-V overflow
 /// the 4M ids spirv-opt allows while it optimises.
@@ -262,7 +262,7 @@ pub const SCAN_BLOCK: u32 = 256;
 /// walk's rounding never misses the cell it looks in.
 pub const CELL_PAD: f32 = 1e-3;
 /// Cells a march looks ahead in one turn for the next cell that lists a
-/// primitive (empty space is skipped, shaders/include/traverse.glsl).
+/// primitive (empty space is skipped, shaders/include/cursor_grid.glsl).
 pub const SKIP_CELLS: u32 = 64;
 
 /// The walk of a tile list (src/render/tiles.rs) stops at an entry whose

@@ -135,7 +135,7 @@ impl Refinement {
 
 /// The bracketed refinement of a crossing, one field evaluation per turn:
 /// the same arithmetic as the GPU's `refine_turn` (shaders/include/
-/// marchers.glsl), in f64. `g` is the field signed so that it is negative
+/// refine.glsl), in f64. `g` is the field signed so that it is negative
 /// on the side the march comes from (`-f` for a crossing that leaves).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bracket {

@@ -422,7 +422,7 @@ fn empty_cells_are_crossed_in_one_move() {
     assert_no_validation(&ctx);
 }
 
-/// The first-crossing bracket (`render::brackets`, shaders/include/traverse.glsl)
+/// The first-crossing bracket (`render::brackets`, shaders/include/fold.glsl)
 /// holds where every term is a point kernel of non-negative weight and iso
 /// is positive, and is off elsewhere: with a negative term, a plane, an
 /// HRBF or iso 0; for transparent and secondary rays; for the bisection

@@ -306,7 +306,7 @@ fn transparent_marching_finds_every_crossing_on_gpu_and_f64() {
 }
 
 /// A transparent camera ray shades the crossings its buffer holds after
-/// its march (marchers.glsl, shade_crossings) and those past the buffer's
+/// its march (crossings.glsl, shade_crossings) and those past the buffer's
 /// MAX_CROSSINGS as it finds them (on_crossing). Along the axis of a row
 /// of separate blobs every crossing shades alike (two-sided, the normal
 /// along the ray), so with no absorption n crossings give

@@ -1,7 +1,7 @@
 // The spatial index's geometry: a uniform grid over the scene's box, and
 // per group one list of primitives per cell plus one "everywhere" list
 // (planes, and primitives whose support covers too many cells). Built by
-// index.comp every frame, walked by the cursor of traverse.glsl. Mirrored
+// index.comp every frame, walked by the cursor of cursor_grid.glsl. Mirrored
 // by src/render/index.rs (layout and budgets) and src/field/grid.rs.
 //
 // globals.grid: xyz the box's minimum corner, w the cell size h.

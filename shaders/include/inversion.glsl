@@ -6,7 +6,7 @@
 #ifndef INVERSION_GLSL
 #define INVERSION_GLSL
 
-#include "traverse.glsl"
+#include "field.glsl"
 
 // The field-inversion methods, either hit rule (Method::inverts).
 const bool INVERTS = SC_METHOD == METHOD_FIELD_INVERSION || SC_METHOD == METHOD_FIELD_INVERSION_DYNAMOL;

@@ -3,7 +3,7 @@
 #ifndef SHADE_GLSL
 #define SHADE_GLSL
 
-#include "traverse.glsl"
+#include "field.glsl"
 
 // Outward unit normal at p (the field decreases outwards), or 0 where the
 // gradient vanishes.

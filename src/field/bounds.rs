@@ -1,5 +1,7 @@
 //! Forward inclusion functions along a ray, in f64: the mirror of
-//! `shaders/include/inclusion.glsl`, and the oracle its tests compare with.
+//! `shaders/include/bound.glsl` and the kernels' bounds
+//! (`kernel_compact.glsl`, `kernel_gaussian.glsl`), and the oracle their
+//! tests compare with.
 //!
 //! Taylor (Sections 5.1, 6.1) and bottom-up linear (Section 5.2) bounds of
 //! one primitive's kernel; the [`Bound`] they make is in `bound.rs`.

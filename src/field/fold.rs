@@ -1,5 +1,5 @@
 //! The one loop over primitives, in f64: the mirror of
-//! `shaders/include/traverse.glsl`. Every evaluation of the field is a
+//! `shaders/include/fold.glsl` (its cursors in `cursor_*.glsl`). Every evaluation of the field is a
 //! fold: a cursor yields the primitives, each adds its terms to its group's
 //! sum, and the groups combine by max (Eq. 20).
 //!

@@ -1,6 +1,6 @@
 //! Hermite RBF terms (the paper's Eq. 9 with φ(r) = r³) and the affine
 //! polynomial term that goes with them, as [`PrimitiveKind`]s: the f64
-//! mirror of `shaders/include/hrbf.glsl`. The fit that produces the
+//! mirror of `shaders/include/kinds/hrbf.glsl` and `kinds/affine.glsl`. The fit that produces the
 //! weights is `scene/hrbf.rs`; docs/hrbf.md has the derivations in full.
 //!
 //! One term about its control point c is

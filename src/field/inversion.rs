@@ -29,7 +29,7 @@
 //!   where f >= 0, refined, the minimum step and the step budget as for the
 //!   others. `field-inversion-dynamol` takes dynamol's: a hit, unrefined,
 //!   where g < 0.0125 r_ref (or f >= 0), at most 32 steps, and out of steps
-//!   the point of smallest g taken as the hit (marchers.glsl `step_apply`,
+//!   the point of smallest g taken as the hit (step.glsl `step_apply`,
 //!   mirrored in `field::march`).
 //! - **Where no atom reaches** (the spatial index clips each Gaussian
 //!   where it falls below its group's threshold τ, [`clip::threshold`]),

@@ -1,8 +1,10 @@
 //! The kinds of primitive, each behind one interface: every evaluation the
 //! marchers make of one primitive (value and gradient at a point, segment
 //! tracing's slope bound, the Taylor, linear, quadratic and RAA bounds along
-//! a ray). The mirror of the per-kind functions of
-//! `shaders/include/field.glsl` and `inclusion.glsl`.
+//! a ray). The mirror of `shaders/include/kinds/`, one file per kind with
+//! its six functions (`compact_point.glsl`, `gaussian_point.glsl`,
+//! `compact_plane.glsl`; HRBF terms and affine functions below), built on the
+//! kernels of `kernel_compact.glsl` and `kernel_gaussian.glsl`.
 //!
 //! A kind maps the ray onto its kernel's argument (a point: the distance to
 //! its centre, `x² + h²` along the ray; a plane: the signed distance

@@ -1,4 +1,5 @@
-//! The marchers in f64: the mirror of `shaders/include/marchers.glsl`, so
+//! The marchers in f64: the mirror of `shaders/include/marchers.glsl` (with
+//! `march_state.glsl`, `step.glsl`, `refine.glsl` and `crossings.glsl`), so
 //! that the no-missed-crossing tests run on the GPU and on the mirror with
 //! the same cases.
 

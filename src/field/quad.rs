@@ -1,6 +1,7 @@
 //! Bottom-up quadratic forward bounds (Section 6.2, Figures 8, 9, 11 and 20
 //! to 22, Appendices B and C), in f64: the mirror of the `quad_*` functions
-//! of `shaders/include/inclusion.glsl`.
+//! of `shaders/include/quad.glsl` and the kernels' quadratic bounds
+//! (`kernel_compact.glsl`, `kernel_gaussian.glsl`).
 //!
 //! A quadratic bound on `τ ∈ [0, len]` is a [`Bound`]: lower and upper
 //! quadratics sharing the start value `v`. Bounds are built from exact

@@ -1,6 +1,7 @@
 //! Revised affine arithmetic along a ray (the paper's [FPC10] baseline;
-//! Fryazinov, Pasko & Comninos 2010), in f64: the mirror of the RAA code in
-//! `shaders/include/inclusion.glsl`.
+//! Fryazinov, Pasko & Comninos 2010), in f64: the mirror of
+//! `shaders/include/raa.glsl` (and of the kernels' RAA bounds in
+//! `kernel_compact.glsl` and the kinds' in `kinds/`).
 //!
 //! On `[a, b]`, `t = tm + tr ε` with `ε ∈ [-1, 1]`. Every quantity is
 //! `x0 + x1 ε ± e`: a centre, one linear term in the ray parameter and one

@@ -1,7 +1,7 @@
 //! The spatial index, host side: the grid's geometry for a scene, the sizes
 //! of its buffers, the GPU build (shaders/index.comp, every frame), and the
 //! loop budget of a marching step that walks it (shaders/include/grid.glsl
-//! and traverse.glsl say what the lists hold and how they are walked).
+//! and cursor_grid.glsl say what the lists hold and how they are walked).
 //!
 //! Why a uniform grid: it is built in seven short compute passes (a
 //! counting sort) with no tree to balance, its cells' lists keep each

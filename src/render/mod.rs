@@ -427,7 +427,7 @@ fn globals(scene: &Scene, growth: f64, quad: QuadSettings, grid: Option<&GridSpe
 }
 
 /// Whether `method` marches `scene`'s first crossings with their bracket
-/// (`march_bracket.spv`, shaders/include/traverse.glsl):
+/// (`march_bracket.spv`, shaders/include/fold.glsl):
 /// with the spatial index, where the bracket holds
 /// ([`Scene::bracket_holds`]), for opaque and
 /// any-hit rays (not transparent or secondary ones) of Algorithm 1's

@@ -127,7 +127,7 @@ fn pixel_range(view: &View, width: u32, height: u32, c: DVec3, r: f64) -> Option
 /// may meet the support, as the tile-local columns x0..=x1 (bits 0-2, 3-5)
 /// and rows y0..=y1 (bits 6-8, 9-11). The depth keeps the high bits: it
 /// is rounded down to 12 fewer bits of mantissa, still no more than the
-/// support's (shaders/include/traverse.glsl, `tile_entry`).
+/// support's (shaders/include/cursor_tiles.glsl, `tile_entry`).
 pub const PIXEL_BITS: u32 = crate::layout::TILE_PIXEL_BITS;
 
 impl TileLists {

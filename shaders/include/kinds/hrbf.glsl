@@ -1,15 +1,20 @@
-// Hermite RBF terms (Eq. 9, φ(r) = r³) and affine functions: every
-// evaluation of the two kinds, in f32. Mirrors src/field/hrbf.rs, whose
-// module documentation (and docs/hrbf.md) carries the derivations.
+// Hermite RBF terms (Eq. 9, φ(r) = r³, PRIM_HRBF): every evaluation of the
+// kind, in f32; kinds/affine.glsl has the affine functions that go with
+// them. Mirrors src/field/hrbf.rs, whose module documentation (and
+// docs/hrbf.md) carries the derivations.
 //
 // A term about its control point c: g = α r³ + 3 r β·(p - c). Along a ray,
 // x = t - tc, h the distance of c from the line, w the vector from c to
 // the closest point: g = ρ P with ρ = √(x² + h²) and the exact quadratic
 // P(x) = α x² + 3 c1 x + α h² + 3 c0, c0 = β·w, c1 = β·u.
-#ifndef HRBF_GLSL
-#define HRBF_GLSL
+#ifndef KIND_HRBF_GLSL
+#define KIND_HRBF_GLSL
 
-#include "inclusion.glsl"
+#include "bindings.glsl"
+#include "counters.glsl"
+#include "bound.glsl"
+#include "quad.glsl"
+#include "raa.glsl"
 
 struct HrbfRay {
     float alpha;
@@ -176,7 +181,7 @@ float hrbf_d2_magnitude(HrbfRay g, float xa, float xb) {
     return a * g.h + 1.1547005 * abs(g.c1) + 3.0 * abs(g.c0_hat) + 2.0 * max(abs(hrbf_dp(g, xa)), abs(hrbf_dp(g, xb))) + 2.0 * a * rho_max;
 }
 
-// --- The kind's interface (traverse.glsl's KIND_TERMS).
+// --- The kind's interface (kinds.glsl).
 
 float hrbf_value(GpuPrimitive pr, vec3 p, bool want_grad, inout vec3 grad) {
     g_evals += 1u;
@@ -249,19 +254,6 @@ Bound hrbf_quad(GpuPrimitive pr, vec3 o, vec3 u, float t0, inout float len) {
     return b;
 }
 
-// √y by min-range linearisation (concave increasing: the least slope, at
-// the top of y's range); y is at least y_min.
-vec3 aa_sqrt(vec3 y, float y_min) {
-    vec2 r = aa_range(y);
-    float hi = max(r.y, y_min);
-    float lo = min(max(r.x, y_min), hi);
-    if (hi <= 0.0) return vec3(0.0);
-    float s = 0.5 / sqrt(hi);
-    float top = sqrt(hi) - s * hi;
-    float bottom = sqrt(lo) - s * lo;
-    return vec3(s * y.x + 0.5 * (top + bottom), s * y.y, s * y.z + 0.5 * (top - bottom));
-}
-
 vec3 hrbf_raa(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
     g_evals += 1u;
     HrbfRay g = hrbf_on_ray(pr, o, u, ta);
@@ -271,37 +263,6 @@ vec3 hrbf_raa(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
     vec3 y = aa_mul(x, x) + vec3(g.h2, 0.0, 0.0);
     vec3 p = aa_scale(y, g.alpha) + aa_scale(x, 3.0 * g.c1) + vec3(3.0 * g.c0, 0.0, 0.0);
     return aa_mul(aa_sqrt(y, g.h2), p);
-}
-
-// --- Affine functions a.xyz · p + a.w: every bound is exact.
-
-float affine_value(GpuPrimitive pr, vec3 p, bool want_grad, inout vec3 grad) {
-    if (want_grad) grad += pr.a.xyz;
-    return dot(pr.a.xyz, p) + pr.a.w;
-}
-
-float affine_lipschitz(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
-    return abs(dot(pr.a.xyz, u));
-}
-
-Taylor affine_taylor(GpuPrimitive pr, vec3 o, vec3 u, float t0, float t1, bool QUADRATIC) {
-    float slope = dot(pr.a.xyz, u);
-    float d = QUADRATIC ? 0.0 : slope;
-    return Taylor(dot(pr.a.xyz, o + t0 * u) + pr.a.w, slope, d, d);
-}
-
-Lin affine_linear(GpuPrimitive pr, vec3 o, vec3 u, float t0, float len) {
-    float slope = dot(pr.a.xyz, u);
-    return Lin(dot(pr.a.xyz, o + t0 * u) + pr.a.w, slope, slope);
-}
-
-Bound affine_quad(GpuPrimitive pr, vec3 o, vec3 u, float t0, inout float len) {
-    return quad_exact(dot(pr.a.xyz, o + t0 * u) + pr.a.w, dot(pr.a.xyz, u), 0.0);
-}
-
-vec3 affine_raa(GpuPrimitive pr, vec3 o, vec3 u, float ta, float tb) {
-    float tm = 0.5 * (ta + tb);
-    return vec3(dot(pr.a.xyz, o + tm * u) + pr.a.w, dot(pr.a.xyz, u) * 0.5 * (tb - ta), 0.0);
 }
 
 #endif
