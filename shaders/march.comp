@@ -29,13 +29,7 @@ void main() {
     if (push.first_slice != 0u) {
         m = march_start(ray.o.w, ray.d.w);
     } else {
-        GpuMarchState s = states[i];
-        m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w & 0xFFFFu, s.node.x, s.node.y, s.node.w, s.node.z, s.v.w, s.light.w, s.light.rgb,
-                  s.trans.rgb, s.trans.w, s.refine.x, s.refine.y, s.refine.z, s.refine.w, s.n.w >> 24u, (s.n.w >> 16u) & 0xFFu, uintBitsToFloat(s.tally.z));
-        g_evals = s.n.y;
-        g_visits = s.tally.x;
-        g_cursor = s.tally.w;
-        turns = s.tally.y;
+        m = march_load(states[i], g_evals, g_visits, turns, g_cursor);
     }
     // What remains of the ray: bisection revisits it all, Algorithm 1 only
     // from the last point outside (refinement starts there).
@@ -73,15 +67,12 @@ void main() {
         if (SC_TRANSPARENT == 0u || g_pending == 0u) break;
         shade_pending(o, u, m);
     }
-    // The flags' upper half holds the refinement's turns and side.
-    uint packed = m.flags | (m.refine_turns << 16u) | (m.refine_side << 24u);
+    uint flags = march_flags_word(m);   // the word march_store packs too
     if ((m.flags & FLAG_DONE) != 0u) {
         // Later slices read only the flags of a ray that is done.
-        states[i].n.w = packed;
+        states[i].n.w = flags;
     } else {
-        states[i] = GpuMarchState(vec4(m.t, m.t_prev, m.window, m.first), uvec4(m.steps, g_evals, m.refine_evals, packed),
-                                  uvec4(m.depth, m.index, m.crossings, m.base_depth), vec4(m.color, m.last), vec4(m.transmittance, m.f_prev),
-                                  vec4(m.ra, m.rb, m.ga, m.gb), uvec4(g_visits, turns, floatBitsToUint(m.far), g_cursor));
+        states[i] = march_store(m, g_evals, g_visits, turns, g_cursor);
         atomicAdd(active_rays, 1u);
         return;
     }

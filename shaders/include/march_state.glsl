@@ -1,5 +1,5 @@
 // The state of one ray's march (March), its start, and its refinement's
-// start.
+// start; march_load and march_store convert it to and from GpuMarchState.
 //
 // A march runs in slices of a bounded number of loop turns, its state kept
 // in GpuMarchState between dispatches, so no dispatch runs unboundedly long
@@ -72,6 +72,30 @@ void begin_refinement(float a, float fa, float b, float fb, bool entering, inout
     m.refine_turns = 0u;
     m.flags |= FLAG_REFINING;
     if (entering) m.flags |= FLAG_REFINE_ENTERING; else m.flags &= ~FLAG_REFINE_ENTERING;
+}
+
+// The march between slices, in `states`: what march_store writes,
+// march_load reads back, with the invocation's counters kept beside it
+// (g_evals, g_visits, the tile walk's g_cursor) and the loop turns so far.
+// The flags' upper half holds the refinement's turns and side.
+uint march_flags_word(March m) {
+    return m.flags | (m.refine_turns << 16u) | (m.refine_side << 24u);
+}
+
+March march_load(GpuMarchState s, out uint evals, out uint visits, out uint turns, out uint cursor) {
+    March m = March(s.v.x, s.v.y, s.v.z, s.n.x, s.n.z, s.n.w & 0xFFFFu, s.node.x, s.node.y, s.node.w, s.node.z, s.v.w, s.light.w, s.light.rgb,
+                    s.trans.rgb, s.trans.w, s.refine.x, s.refine.y, s.refine.z, s.refine.w, s.n.w >> 24u, (s.n.w >> 16u) & 0xFFu, uintBitsToFloat(s.tally.z));
+    evals = s.n.y;
+    visits = s.tally.x;
+    cursor = s.tally.w;
+    turns = s.tally.y;
+    return m;
+}
+
+GpuMarchState march_store(March m, uint evals, uint visits, uint turns, uint cursor) {
+    return GpuMarchState(vec4(m.t, m.t_prev, m.window, m.first), uvec4(m.steps, evals, m.refine_evals, march_flags_word(m)),
+                         uvec4(m.depth, m.index, m.crossings, m.base_depth), vec4(m.color, m.last), vec4(m.transmittance, m.f_prev),
+                         vec4(m.ra, m.rb, m.ga, m.gb), uvec4(visits, turns, floatBitsToUint(m.far), cursor));
 }
 
 #endif
