@@ -235,3 +235,34 @@ impl PrimitiveKind for PlanePrim {
         compact_raa(&self.kernel, inv_r2, 0.0, xa, xb)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    /// Every kind the GPU knows (a `PRIM_*` constant shared with GLSL) has
+    /// its own file, `shaders/include/kinds/<kind>.glsl`, defining its six
+    /// functions, and `shaders/include/kinds.glsl` includes that file and
+    /// names the kind in its switch (its `KIND_TERMS` line and its case in
+    /// `prim_terms`): a kind whose file goes missing, or which the switch
+    /// forgets and would poison, fails here before any GPU runs.
+    #[test]
+    fn every_kind_has_its_shader_file_and_its_line_in_the_kind_switch() {
+        let include = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders").join("include");
+        let switch = std::fs::read_to_string(include.join("kinds.glsl")).expect("reading shaders/include/kinds.glsl");
+        let kinds: Vec<&str> = crate::layout::GLSL_CONSTANTS.iter().filter_map(|(name, _)| name.strip_prefix("PRIM_")).collect();
+        assert!(!kinds.is_empty(), "no PRIM_* constant in layout::GLSL_CONSTANTS");
+        for upper in kinds {
+            let kind = upper.to_lowercase();
+            let file = include.join("kinds").join(format!("{kind}.glsl"));
+            let source = std::fs::read_to_string(&file).unwrap_or_else(|e| panic!("PRIM_{upper} has no {}: {e}", file.display()));
+            for function in ["value", "lipschitz", "taylor", "linear", "quad", "raa"] {
+                let definition = format!("{kind}_{function}(GpuPrimitive pr");
+                assert!(source.contains(&definition), "{} does not define {kind}_{function}", file.display());
+            }
+            for line in [format!("#include \"kinds/{kind}.glsl\""), format!("KIND_TERMS({kind})"), format!("case PRIM_{upper}:")] {
+                assert!(switch.contains(&line), "shaders/include/kinds.glsl lacks `{line}` for PRIM_{upper}");
+            }
+        }
+    }
+}
