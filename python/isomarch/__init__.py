@@ -44,6 +44,11 @@ __all__ = [
 ]
 
 
+def __dir__():
+    """The API alone (PEP 562): not the names the module imports."""
+    return sorted([*__all__, "__version__"])
+
+
 def _molecule_options(options: Optional[MoleculeOptions], fields: dict) -> MoleculeOptions:
     """``options``, or one made of its fields given as keywords
     (``hydrogens=True``); not both."""
