@@ -541,17 +541,20 @@ fn a_trajectory_plays_through_with_memory_that_does_not_grow() {
     // A cache of every decoded frame is full after one loop of 5: the 98
     // frames of the AdK DCD played through once against the same
     // trajectory shown paused on its first frame (the topology and the
-    // decoder's few frames ahead). Each frame's scene is about 0.4 MiB
-    // with hydrogens (3,341 atoms), so keeping them all takes some 40 MiB.
+    // decoder's few frames ahead). Here the peak is the start's (pipelines
+    // built: 166 to 168 MiB whatever is played), so the resident memory at
+    // the end is compared, which is steady for this small trajectory
+    // (paused 123.7 MiB in three runs, played 124.2 to 124.5). Keeping
+    // every decoded frame's scene (broken on purpose once) ended at 149.7.
     let (top, traj) = ("tests/data/trajectories/adk.psf", "tests/data/trajectories/adk_dims.dcd");
     let out = view(&x, &[top, traj, "--hydrogens", "--every-frame", "--loops", "1", "--size", "48x48"]);
     assert_clean(&out, 98);
-    let (shown, played, _) = playback(&out);
+    let (shown, _, played) = playback(&out);
     assert_eq!(shown, 98, "every frame of the AdK DCD once");
     let out = view(&x, &[top, traj, "--hydrogens", "--paused", "--exit-after", "3", "--size", "48x48"]);
     assert_clean(&out, 3);
-    let (_, still, _) = playback(&out);
-    assert!(played <= still + 15.0, "playing 98 frames peaked at {played} MiB, the paused first frame at {still} MiB");
+    let (_, _, still) = playback(&out);
+    assert!(played <= still + 10.0, "playing 98 frames ended at {played} MiB resident, the paused first frame at {still} MiB");
 }
 
 #[test]
