@@ -204,3 +204,24 @@ impl MarchArgs {
         Ok(())
     }
 }
+
+/// The flags of a command that opens a scene file, a molecule or a
+/// trajectory and marches it on the device (`render`, `view`, `bench`):
+/// how molecules become scenes, the marching overrides, the device.
+#[derive(Args)]
+pub struct SceneFlags {
+    #[command(flatten)]
+    pub molecule: MoleculeArgs,
+    #[command(flatten)]
+    pub march: MarchArgs,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+impl SceneFlags {
+    /// Opens `path` (and `trajectory`) with these flags and `play`'s frame
+    /// and framing.
+    pub fn open(&self, path: &Path, trajectory: Option<&Path>, play: &PlayArgs) -> Result<Input> {
+        self.march.open(&self.molecule.source(path, trajectory, play))
+    }
+}

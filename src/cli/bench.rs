@@ -12,7 +12,7 @@ use isomarch::render::offscreen::{RenderJob, render_frame};
 use isomarch::scene::Scene;
 use isomarch::settings::{QuadSettings, ValidityScope};
 
-use super::args::{GpuArgs, MarchArgs, MoleculeArgs, PlayArgs};
+use super::args::{PlayArgs, SceneFlags};
 use super::finish;
 
 /// `isomarch bench`.
@@ -69,11 +69,7 @@ pub struct BenchArgs {
     #[arg(long)]
     any_hit: bool,
     #[command(flatten)]
-    molecule: MoleculeArgs,
-    #[command(flatten)]
-    march: MarchArgs,
-    #[command(flatten)]
-    gpu: GpuArgs,
+    flags: SceneFlags,
 }
 
 /// A setting that `bench` runs one way, or both ways to measure it.
@@ -183,12 +179,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
         FileFormat::of("--heatmap-grid", path, &[FileFormat::Png])?;
     }
     // An animated scene is measured as posed at time 0.
-    let scene = args.march.open(&args.molecule.source(&args.scene, args.trajectory.as_deref(), &args.play))?.scene(args.play.frame)?.at_time(0.0);
+    let scene = args.flags.open(&args.scene, args.trajectory.as_deref(), &args.play)?.scene(args.play.frame)?.at_time(0.0);
     let variants = args.variants.variants(&scene);
     let camera = args.camera.map(|size| size.unwrap_or((scene.camera.width, scene.camera.height)));
     let plan = bench::Plan { methods: &methods, variants: &variants, rays, seed: args.seed, repeats: args.repeat, camera, any_hit: args.any_hit };
     plan.check()?;
-    let gpu = args.gpu.open()?;
+    let gpu = args.flags.gpu.open()?;
     let report = bench::run(&gpu.ctx, &scene, &plan, gpu.timeout)?;
     print!("{}", bench::markdown(&report));
     if let Some(path) = args.json {

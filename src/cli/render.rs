@@ -13,7 +13,7 @@ use isomarch::output::{Aov, FileFormat};
 use isomarch::render::offscreen::{RenderJob, render_to_files};
 use isomarch::scene::Scene;
 
-use super::args::{GpuArgs, MarchArgs, MoleculeArgs, PlayArgs};
+use super::args::{GpuArgs, PlayArgs, SceneFlags};
 use super::report::{self, count, method_note};
 use super::{Interrupted, finish};
 
@@ -94,11 +94,7 @@ pub struct RenderArgs {
     #[command(flatten)]
     batch: BatchArgs,
     #[command(flatten)]
-    molecule: MoleculeArgs,
-    #[command(flatten)]
-    march: MarchArgs,
-    #[command(flatten)]
-    gpu: GpuArgs,
+    flags: SceneFlags,
 }
 
 /// What `render` will do, every value checked, before the device is
@@ -128,7 +124,7 @@ impl TryFrom<RenderArgs> for Plan {
     type Error = anyhow::Error;
 
     fn try_from(args: RenderArgs) -> Result<Plan> {
-        let mut input = args.march.open(&args.molecule.source(&args.scene, args.trajectory.as_deref(), &args.play))?;
+        let mut input = args.flags.open(&args.scene, args.trajectory.as_deref(), &args.play)?;
         if let (Some(range), Some(k)) = (args.batch.frames, args.play.frame) {
             bail!("--frame {k} renders one frame; --frames {}..{} renders a batch: give one of them", range.start, range.end);
         }
@@ -158,12 +154,12 @@ impl TryFrom<RenderArgs> for Plan {
             aov_output: args.aov_output,
             stats: args.stats,
             samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
-            ..RenderJob::new(scene, method, size, args.output, args.gpu.timeout()?)
+            ..RenderJob::new(scene, method, size, args.output, args.flags.gpu.timeout()?)
         };
         // Every output's format from its extension, before any work.
         job.outputs()?;
         isomarch::render::light::check_method(&job.scene, job.method)?;
-        Ok(Plan::Still { job, gpu: args.gpu })
+        Ok(Plan::Still { job, gpu: args.flags.gpu })
     }
 }
 
@@ -188,10 +184,10 @@ impl Batch {
         let method = scene.marching.method;
         let job = RenderJob {
             samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
-            ..RenderJob::new(scene, method, size, output, args.gpu.timeout()?)
+            ..RenderJob::new(scene, method, size, output, args.flags.gpu.timeout()?)
         };
         isomarch::render::light::check_method(&job.scene, job.method)?;
-        Ok(Batch { job, stager, pattern, range, fps, shard, skip_existing: batch.skip_existing, csv, gpu: args.gpu })
+        Ok(Batch { job, stager, pattern, range, fps, shard, skip_existing: batch.skip_existing, csv, gpu: args.flags.gpu })
     }
 
     fn run(self) -> Result<()> {

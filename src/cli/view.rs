@@ -10,7 +10,7 @@ use isomarch::open::Input;
 use isomarch::output::FileFormat;
 use isomarch::view::ViewOptions;
 
-use super::args::{GpuArgs, MarchArgs, MoleculeArgs, PlayArgs};
+use super::args::{PlayArgs, SceneFlags};
 use super::finish;
 use super::report::{self, method_note};
 
@@ -64,11 +64,7 @@ pub struct ViewArgs {
     #[arg(long, default_value = ".", value_name = "DIR")]
     screenshot_dir: PathBuf,
     #[command(flatten)]
-    molecule: MoleculeArgs,
-    #[command(flatten)]
-    march: MarchArgs,
-    #[command(flatten)]
-    gpu: GpuArgs,
+    flags: SceneFlags,
 }
 
 /// What `view` will show, every value checked, before the window opens.
@@ -76,7 +72,7 @@ impl TryFrom<ViewArgs> for ViewOptions {
     type Error = anyhow::Error;
 
     fn try_from(args: ViewArgs) -> Result<ViewOptions> {
-        let input = args.march.open(&args.molecule.source(&args.scene, args.trajectory.as_deref(), &args.play))?;
+        let input = args.flags.open(&args.scene, args.trajectory.as_deref(), &args.play)?;
         if (args.every_frame || args.loops.is_some()) && matches!(input, Input::Still(_)) {
             bail!("--every-frame and --loops play a trajectory; {} holds one frame", args.scene.display());
         }
@@ -97,7 +93,7 @@ impl TryFrom<ViewArgs> for ViewOptions {
         if let Some(path) = &args.screenshot {
             FileFormat::of("--screenshot", path, &[FileFormat::Png])?;
         }
-        let timeout = args.gpu.timeout()?;
+        let timeout = args.flags.gpu.timeout()?;
         let samples = checks::samples(args.samples.unwrap_or(scene.camera.samples))?;
         Ok(ViewOptions {
             method: scene.marching.method,
@@ -112,8 +108,8 @@ impl TryFrom<ViewArgs> for ViewOptions {
             samples,
             screenshot: args.screenshot,
             screenshot_dir: args.screenshot_dir,
-            device: args.gpu.device,
-            validation: args.gpu.validation,
+            device: args.flags.gpu.device,
+            validation: args.flags.gpu.validation,
             timeout,
         })
     }
