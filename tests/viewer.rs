@@ -595,3 +595,43 @@ fn at_rest_the_viewer_accumulates_the_anti_aliased_frame_render_makes() {
     let edges = shown.pixels().zip(one.pixels()).filter(|(a, b)| a != b).count();
     assert!(edges > 20, "the accumulated frame is the one-sample frame ({edges} pixels differ)");
 }
+
+/// `view --shadows --ao 8` shows the frame `render --shadows --ao 8` makes,
+/// byte for byte (the window's frame is marched and lit as offscreen), and
+/// the lighting shows (it differs from the unlit frame).
+#[test]
+fn a_lit_viewer_frame_is_the_lit_render() {
+    let dir = scratch("viewer-lit");
+    let lit = ["--size", "64x64", "--shadows", "--ao", "8"];
+    let s = Session::open(&[&["scenes/fig10.ron", "--paused"][..], &lit[..]].concat());
+    let (_, shown) = s.settled();
+    s.close();
+    let offscreen = render(Path::new("scenes/fig10.ron"), &dir.join("lit.png"), &lit);
+    let plain = render(Path::new("scenes/fig10.ron"), &dir.join("plain.png"), &["--size", "64x64"]);
+    shown.save(dir.join("lit-window.png")).unwrap();
+    assert!(max_channel_diff(&offscreen, &plain) > 20, "shadows and occlusion change nothing in fig10");
+    let d = max_channel_diff(&shown, &offscreen);
+    assert!(d == 0, "the lit window differs from render --shadows --ao 8 by up to {d} per channel (saved {})", dir.display());
+}
+
+/// `view --samples 4`: motion starts the anti-aliasing again, so zooming
+/// in and out returns to the anti-aliased frame (within the zoom's
+/// rounding, a level), not to the one-sample frame, which differs from
+/// it by far more at the edges.
+#[test]
+fn motion_restarts_the_viewers_anti_aliasing() {
+    let dir = scratch("viewer-samples-motion");
+    let one = render(Path::new("scenes/fig10.ron"), &dir.join("one.png"), &["--size", "96x96"]);
+    let s = Session::open(&["scenes/fig10.ron", "--size", "96x96", "--paused", "--samples", "4", "--preview-ms", "600000"]);
+    let (_, start) = s.settled();
+    assert!(max_channel_diff(&start, &one) > 20, "the anti-aliased frame is the one-sample frame");
+    // The wheel where the pointer is: over the window.
+    s.send(&["mousemove", "--window", &s.window, "48", "48", "click", "4"]);
+    let (_, near) = s.settled_after(&start);
+    assert!(covered(&near) > covered(&start) + 50, "wheel up did not zoom in: {} -> {} pixels", covered(&start), covered(&near));
+    s.send(&["click", "5"]);
+    let (title, back) = s.settled_after(&near);
+    s.close();
+    let d = max_channel_diff(&back, &start);
+    assert!(d <= 1, "after zooming in and out the window differs from the anti-aliased frame by {d} ({title})");
+}

@@ -294,3 +294,34 @@ def test_molecule_options_take_the_clis_defaults_and_checks(tmp_path):
         isomarch.MoleculeOptions(colour="chain")
     with pytest.raises(TypeError, match="not both"):
         isomarch.Scene.from_molecule(PDB, given, iso=2)
+
+
+def test_trajectories_default_framing_xtc_input_and_models_alone(renderer, tmp_path):
+    # The default framing is "first": frame 0 renders as the command line's
+    # without --framing, and otherwise than with --framing all.
+    top, traj = ROOT / "tests/data/trajectories/adk.psf", ROOT / "tests/data/trajectories/adk_dims.dcd"
+    cli("render", top, traj, "--frame", "0", "-o", tmp_path / "first.png", "--size", "40x40")
+    default = renderer.render(isomarch.Trajectory(top, traj)[0], size=(40, 40))
+    assert default.png() == (tmp_path / "first.png").read_bytes(), "the default framing is not --framing first"
+    assert default.png() != renderer.render(isomarch.Trajectory(top, traj, framing="all")[0], size=(40, 40)).png()
+    # XTC input: YiiP's 5 frames, frame 2 as `render TOP TRAJ --frame 2`.
+    gro, xtc = ROOT / "tests/data/trajectories/YiiP_lipids.gro.gz", ROOT / "tests/data/trajectories/YiiP_lipids.xtc"
+    frames = isomarch.Trajectory(gro, xtc)
+    assert len(frames) == 5, len(frames)
+    cli("render", gro, xtc, "--frame", "2", "-o", tmp_path / "yiip2.png", "--size", "40x40")
+    assert renderer.render(frames[2], size=(40, 40)).png() == (tmp_path / "yiip2.png").read_bytes(), "XTC frame 2"
+    # A file of several models alone: its models are the frames.
+    models = tmp_path / "nmr.pdb"
+    atom = "ATOM  {:>5} {:<4} GLY A   1    {:>8.3f}{:>8.3f}{:>8.3f}  1.00  0.00          {:>2}\n"
+    text = ""
+    for m in range(3):
+        text += f"MODEL     {m + 1:>4}\n"
+        for i, (name, el, x) in enumerate([("N", "N", 0.0), ("CA", "C", 1.45), ("C", "C", 2.9)]):
+            text += atom.format(i + 1, f" {name}", x + m, 0.0, 0.0, el)
+        text += "ENDMDL\n"
+    models.write_text(text + "END\n")
+    alone = isomarch.Trajectory(models)
+    assert len(alone) == 3, len(alone)
+    cli("render", models, "--frame", "1", "-o", tmp_path / "model1.png", "--size", "32x32")
+    assert renderer.render(alone[1], size=(32, 32)).png() == (tmp_path / "model1.png").read_bytes(), "model 1"
+    assert renderer.render(alone[0], size=(32, 32)).png() != (tmp_path / "model1.png").read_bytes(), "models 0 and 1 alike"
