@@ -21,17 +21,24 @@ fn rows(text: &str) -> (Vec<String>, Vec<Vec<f64>>) {
     (head, rows)
 }
 
-/// (name, topology, trajectory)
-const PAIRS: [(&str, &str, &str); 3] = [
-    ("YiiP_lipids", "YiiP_lipids.gro.gz", "YiiP_lipids.xtc"),
-    ("adk_oplsaa", "adk_oplsaa.gro.gz", "adk_oplsaa.xtc"),
-    ("adk_dims", "adk.psf", "adk_dims.dcd"),
+/// (name, topology, trajectory, MDAnalysis's reference in reference/),
+/// and the variants scripts/trajectory-reference.py writes with it: a DCD
+/// with a unit cell in every frame, the same file big-endian (checked
+/// against the little-endian rows: MDAnalysis misreads its time step),
+/// and an XTC of precision 100.
+const PAIRS: [(&str, &str, &str, &str); 6] = [
+    ("YiiP_lipids", "YiiP_lipids.gro.gz", "YiiP_lipids.xtc", "YiiP_lipids"),
+    ("adk_oplsaa", "adk_oplsaa.gro.gz", "adk_oplsaa.xtc", "adk_oplsaa"),
+    ("adk_dims", "adk.psf", "adk_dims.dcd", "adk_dims"),
+    ("adk_cell", "adk.psf", "adk_cell.dcd", "adk_cell"),
+    ("adk_big", "adk.psf", "adk_big.dcd", "adk_cell"),
+    ("adk_prec", "adk_oplsaa.gro.gz", "adk_prec.xtc", "adk_prec"),
 ];
 
 #[test]
 fn every_frame_agrees_with_mdanalysis() {
-    for (name, top, traj) in PAIRS {
-        let reference = std::fs::read_to_string(data(&format!("reference/{name}.csv"))).unwrap();
+    for (name, top, traj, reference) in PAIRS {
+        let reference = std::fs::read_to_string(data(&format!("reference/{reference}.csv"))).unwrap();
         let (head, want) = rows(&reference);
         // The atoms MDAnalysis printed: 0, 1, n/2, n-1.
         let atoms: Vec<String> = head.iter().filter(|h| h.starts_with('x')).map(|h| h[1..].to_string()).collect();
@@ -56,9 +63,9 @@ fn every_frame_agrees_with_mdanalysis() {
 
 #[test]
 fn every_frame_of_every_trajectory_renders() {
-    for (name, top, traj) in PAIRS {
+    for (name, top, traj, reference) in PAIRS {
         let dir = scratch(&format!("traj-all-{name}"));
-        let count = rows(&std::fs::read_to_string(data(&format!("reference/{name}.csv"))).unwrap()).1.len();
+        let count = rows(&std::fs::read_to_string(data(&format!("reference/{reference}.csv"))).unwrap()).1.len();
         let pattern = dir.join("f_###.png");
         let range = format!("0..{count}");
         isomarch(["render", &data(top), &data(traj), "--frames", &range, "-o", pattern.to_str().unwrap(), "--size", "24x24", "--timeout", "300"])
