@@ -152,29 +152,66 @@ fn all_scenes() -> Vec<(String, Scene)> {
     v
 }
 
-#[test]
-fn inclusion_bounds_are_forward_and_contain_the_field_on_gpu_and_f64() {
-    let ctx = gpu();
+/// Where bounds come from: the GPU's shaders, or their f64 mirror. A suite
+/// that holds for both is written once, taking the backend, and
+/// instantiated for each by [`per_backend!`], so that a failure names its
+/// backend (`inclusion::bounds_contain_the_field::gpu`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Backend {
+    Gpu,
+    F64,
+}
+
+/// `mod SUITE { fn gpu(); fn f64(); }`: the suite `SUITE(Backend)` as a
+/// test per backend.
+macro_rules! per_backend {
+    ($suite:ident) => {
+        mod $suite {
+            #[test]
+            fn gpu() {
+                super::$suite(super::Backend::Gpu)
+            }
+
+            #[test]
+            fn f64() {
+                super::$suite(super::Backend::F64)
+            }
+        }
+    };
+}
+
+per_backend!(bounds_contain_the_field);
+
+/// Every forward bound is exact at t0 and contains dense samples of the
+/// field over its valid interval: in f64 to rounding (1e-12 forward, 1e-9
+/// outside), on the GPU to a few f32 ulps of the field's scale amplified
+/// along τ (2e-6 and 2e-5).
+fn bounds_contain_the_field(backend: Backend) {
+    let ctx = (backend == Backend::Gpu).then(gpu);
+    let (forward_tol, outside_tol) = match backend {
+        Backend::Gpu => (2e-6, 2e-5),
+        Backend::F64 => (1e-12, 1e-9),
+    };
     for (name, s) in all_scenes() {
         let field = Field::new(&s);
         let queries = cases(&s, 11, 400);
         let meeting = queries.iter().filter(|q| meets_support(&s, q)).count();
         assert!(2 * meeting >= queries.len(), "{name}: only {meeting} of {} queries meet a support", queries.len());
-        let mut renderer = Renderer::new(&ctx, &s).unwrap();
+        let mut renderer = ctx.as_ref().map(|ctx| Renderer::new(ctx, &s).unwrap());
         let sc = scale(&s);
         for (method, quad) in INCLUSION {
-            let exact = check(&field, method, &queries, &f64_bounds(&field, method, quad, &queries), sc);
-            assert!(exact.worst_forward < 1e-12, "{name} {method} {quad:?} f64: forward error {:e}", exact.worst_forward);
-            // Dense samples of an exact bound may touch it; f64 rounding only.
-            assert!(exact.worst_outside < 1e-9, "{name} {method} {quad:?} f64: a sample lies {:e} outside", exact.worst_outside);
-            let options = MarchOptions { quad, ..MarchOptions::for_scene(&s) };
-            let gpu = check(&field, method, &queries, &gpu_bounds(&mut renderer, method, options, &queries), sc);
-            // f32: a few ulps of the field's scale, amplified along τ.
-            assert!(gpu.worst_forward < 2e-6, "{name} {method} {quad:?} GPU: forward error {:e}", gpu.worst_forward);
-            assert!(gpu.worst_outside < 2e-5, "{name} {method} {quad:?} GPU: a sample lies {:e} outside", gpu.worst_outside);
+            let bounds = match &mut renderer {
+                Some(r) => gpu_bounds(r, method, MarchOptions { quad, ..MarchOptions::for_scene(&s) }, &queries),
+                None => f64_bounds(&field, method, quad, &queries),
+            };
+            let c = check(&field, method, &queries, &bounds, sc);
+            assert!(c.worst_forward < forward_tol, "{name} {method} {quad:?} {backend:?}: forward error {:e}", c.worst_forward);
+            assert!(c.worst_outside < outside_tol, "{name} {method} {quad:?} {backend:?}: a sample lies {:e} outside", c.worst_outside);
         }
     }
-    assert_no_validation(&ctx);
+    if let Some(ctx) = ctx {
+        assert_no_validation(&ctx);
+    }
 }
 
 #[test]
