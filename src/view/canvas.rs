@@ -88,9 +88,10 @@ mod tests {
                 assert_eq!(c.steps[i], steps, "pixel {x},{y}");
             }
         }
-        // Not a multiple: 3 columns from 2.
-        c.upscale((2, 1), &[10, 10, 10, 20, 20, 20], &[1, 2], (3, 1));
-        assert_eq!(c.steps, [1, 1, 2]);
+        // Not a multiple, both ways: 3x3 from 2x2 (each small pixel's
+        // steps its index, so a row or a column off shows).
+        c.upscale((2, 2), &[0; 12], &[0, 1, 2, 3], (3, 3));
+        assert_eq!(c.steps, [0, 0, 1, 0, 0, 1, 2, 2, 3]);
         c.clear();
         assert!(c.is_empty());
     }
