@@ -7,12 +7,13 @@ use clap::{Args, ValueEnum};
 
 use isomarch::bench;
 use isomarch::checks;
+use isomarch::method::Method;
 use isomarch::output::{self, FileFormat, png_bytes, write_atomic};
 use isomarch::render::offscreen::{RenderJob, render_frame};
 use isomarch::scene::Scene;
 use isomarch::settings::{QuadSettings, ValidityScope};
 
-use super::args::{PlayArgs, SceneFlags};
+use super::args::{GpuArgs, PlayArgs, SceneFlags};
 use super::finish;
 
 /// `isomarch bench`.
@@ -169,39 +170,91 @@ impl VariantArgs {
     }
 }
 
+/// What `bench` will measure, every value checked, before the device is
+/// opened.
+struct Plan {
+    scene: Scene,
+    methods: Vec<Method>,
+    variants: Vec<bench::Variant>,
+    rays: usize,
+    seed: u64,
+    repeats: usize,
+    camera: Option<(u32, u32)>,
+    any_hit: bool,
+    json: Option<PathBuf>,
+    heatmap_grid: Option<(PathBuf, (u32, u32), u32)>,
+    gpu: GpuArgs,
+}
+
+impl TryFrom<BenchArgs> for Plan {
+    type Error = anyhow::Error;
+
+    fn try_from(args: BenchArgs) -> Result<Plan> {
+        let methods = checks::methods(&args.methods)?;
+        let rays = checks::rays(args.rays)?;
+        if let Some(path) = &args.json {
+            FileFormat::of("--json", path, &[FileFormat::Json])?;
+        }
+        if let Some(path) = &args.heatmap_grid {
+            FileFormat::of("--heatmap-grid", path, &[FileFormat::Png])?;
+        }
+        // An animated scene is measured as posed at time 0.
+        let scene = args.flags.open(&args.scene, args.trajectory.as_deref(), &args.play)?.scene(args.play.frame)?.at_time(0.0);
+        let variants = args.variants.variants(&scene);
+        let camera = args.camera.map(|size| size.unwrap_or((scene.camera.width, scene.camera.height)));
+        let plan = Plan {
+            scene,
+            methods,
+            variants,
+            rays,
+            seed: args.seed,
+            repeats: args.repeat,
+            camera,
+            any_hit: args.any_hit,
+            json: args.json,
+            heatmap_grid: args.heatmap_grid.map(|path| (path, args.size, args.steps_max)),
+            gpu: args.flags.gpu,
+        };
+        plan.protocol().check()?;
+        Ok(plan)
+    }
+}
+
+impl Plan {
+    /// The library's benchmark plan.
+    fn protocol(&self) -> bench::Plan<'_> {
+        bench::Plan {
+            methods: &self.methods,
+            variants: &self.variants,
+            rays: self.rays,
+            seed: self.seed,
+            repeats: self.repeats,
+            camera: self.camera,
+            any_hit: self.any_hit,
+        }
+    }
+}
+
 pub fn run(args: BenchArgs) -> Result<()> {
-    let methods = checks::methods(&args.methods)?;
-    let rays = checks::rays(args.rays)?;
-    if let Some(path) = &args.json {
-        FileFormat::of("--json", path, &[FileFormat::Json])?;
-    }
-    if let Some(path) = &args.heatmap_grid {
-        FileFormat::of("--heatmap-grid", path, &[FileFormat::Png])?;
-    }
-    // An animated scene is measured as posed at time 0.
-    let scene = args.flags.open(&args.scene, args.trajectory.as_deref(), &args.play)?.scene(args.play.frame)?.at_time(0.0);
-    let variants = args.variants.variants(&scene);
-    let camera = args.camera.map(|size| size.unwrap_or((scene.camera.width, scene.camera.height)));
-    let plan = bench::Plan { methods: &methods, variants: &variants, rays, seed: args.seed, repeats: args.repeat, camera, any_hit: args.any_hit };
-    plan.check()?;
-    let gpu = args.flags.gpu.open()?;
-    let report = bench::run(&gpu.ctx, &scene, &plan, gpu.timeout)?;
+    let plan = Plan::try_from(args)?;
+    let gpu = plan.gpu.open()?;
+    let report = bench::run(&gpu.ctx, &plan.scene, &plan.protocol(), gpu.timeout)?;
     print!("{}", bench::markdown(&report));
-    if let Some(path) = args.json {
-        write_atomic(&path, &serde_json::to_vec_pretty(&report)?)?;
+    if let Some(path) = &plan.json {
+        write_atomic(path, &serde_json::to_vec_pretty(&report)?)?;
     }
-    if let Some(path) = args.heatmap_grid {
+    if let Some((path, size, steps_max)) = &plan.heatmap_grid {
         // The grid shows the first variant's settings.
-        let mut scene = scene.clone();
-        scene.marching.quad = variants[0].quad;
+        let mut scene = plan.scene.clone();
+        scene.marching.quad = plan.variants[0].quad;
         let mut panels = Vec::new();
-        for &method in &methods {
-            let job = RenderJob::new(scene.clone(), method, args.size, PathBuf::new(), gpu.timeout);
+        for &method in &plan.methods {
+            let job = RenderJob::new(scene.clone(), method, *size, PathBuf::new(), gpu.timeout);
             let (frame, _) = render_frame(&gpu.ctx, &job)?;
             panels.push((method.to_string(), frame.steps()));
         }
-        let grid = output::heatmap_grid(args.size.0, args.size.1, &panels, Some(args.steps_max));
-        write_atomic(&path, &png_bytes(&grid)?)?;
+        let grid = output::heatmap_grid(size.0, size.1, &panels, Some(*steps_max));
+        write_atomic(path, &png_bytes(&grid)?)?;
     }
     finish(&gpu.ctx)
 }

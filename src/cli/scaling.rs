@@ -44,18 +44,35 @@ pub struct ScalingArgs {
     gpu: GpuArgs,
 }
 
+/// What `scaling` will measure, every value checked, before the device is
+/// opened.
+struct Plan {
+    sweep: isomarch::scaling::Sweep,
+    output: PathBuf,
+    gpu: GpuArgs,
+}
+
+impl TryFrom<ScalingArgs> for Plan {
+    type Error = anyhow::Error;
+
+    fn try_from(args: ScalingArgs) -> Result<Plan> {
+        let ScalingArgs { counts, methods, rays, repeat, seed, ray_seed, gaussian, output, gpu } = args;
+        let sweep = isomarch::scaling::Sweep {
+            counts: isomarch::scaling::parse_counts(&counts)?,
+            methods: checks::methods(&methods)?,
+            rays: checks::rays(rays)?,
+            repeat,
+            seed,
+            ray_seed,
+            gaussian,
+        };
+        sweep.check()?;
+        Ok(Plan { sweep, output, gpu })
+    }
+}
+
 pub fn run(args: ScalingArgs) -> Result<()> {
-    let ScalingArgs { counts, methods, rays, repeat, seed, ray_seed, gaussian, output, gpu } = args;
-    let sweep = isomarch::scaling::Sweep {
-        counts: isomarch::scaling::parse_counts(&counts)?,
-        methods: checks::methods(&methods)?,
-        rays: checks::rays(rays)?,
-        repeat,
-        seed,
-        ray_seed,
-        gaussian,
-    };
-    sweep.check()?;
+    let Plan { sweep, output, gpu } = Plan::try_from(args)?;
     let gpu = gpu.open()?;
     let report = isomarch::scaling::run(&gpu.ctx, &sweep, gpu.timeout, command_line(), true)?;
     report.write(&output)?;

@@ -57,45 +57,67 @@ pub struct TradeoffArgs {
     gpu: GpuArgs,
 }
 
+/// What `tradeoff` will do, every value checked, before the device is
+/// opened: draw the plot again from a folder's CSV, or sweep.
+#[allow(clippy::large_enum_variant)] // one per run
+enum Plan {
+    Replot { dir: PathBuf, stem: String },
+    Sweep { scene: Scene, sweep: isomarch::tradeoff::Sweep, dir: PathBuf, stem: String, gpu: GpuArgs },
+}
+
+impl TryFrom<TradeoffArgs> for Plan {
+    type Error = anyhow::Error;
+
+    fn try_from(args: TradeoffArgs) -> Result<Plan> {
+        let TradeoffArgs { scene: path, methods, min_steps, max_steps, rays, seed, quick, any_hit, output, replot, gpu } = args;
+        let mut stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        if any_hit {
+            stem.push_str("-any-hit");
+        }
+        let dir = output.unwrap_or_else(|| PathBuf::from(format!("tradeoff-{stem}")));
+        if replot {
+            return Ok(Plan::Replot { dir, stem });
+        }
+        if isomarch::molecule::is_molecule(&path) || path.extension().is_some_and(|e| e.eq_ignore_ascii_case("psf")) {
+            bail!(
+                "{}: tradeoff takes a scene file (.ron), not a molecule; `isomarch scene {} -o scene.ron` writes the molecule's",
+                path.display(),
+                path.display()
+            );
+        }
+        let scene = Scene::load(&path)?.at_time(0.0);
+        let default = if quick { "segment,quadratic-taylor" } else { "sphere,segment,linear-taylor,quadratic-taylor,quadratic" };
+        let methods = checks::methods(methods.as_deref().unwrap_or(default))?;
+        let mut sweep = if quick { isomarch::tradeoff::Sweep::quick(methods) } else { isomarch::tradeoff::Sweep::full(methods) };
+        if !min_steps.is_empty() {
+            sweep.min_steps = min_steps;
+        }
+        if !max_steps.is_empty() {
+            sweep.max_steps = max_steps;
+        }
+        if let Some(n) = rays {
+            sweep.rays = n;
+        }
+        sweep.seed = seed;
+        sweep.any_hit = any_hit;
+        sweep.check()?;
+        Ok(Plan::Sweep { scene, sweep, dir, stem, gpu })
+    }
+}
+
 pub fn run(args: TradeoffArgs) -> Result<()> {
-    let TradeoffArgs { scene: path, methods, min_steps, max_steps, rays, seed, quick, any_hit, output, replot, gpu } = args;
-    let mut stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-    if any_hit {
-        stem.push_str("-any-hit");
-    }
-    let dir = output.unwrap_or_else(|| PathBuf::from(format!("tradeoff-{stem}")));
-    if replot {
-        let csv = dir.join("tradeoff.csv");
-        let text = std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
-        let points = isomarch::tradeoff::read_csv(&text).with_context(|| csv.display().to_string())?;
-        let title = format!("{stem}: time per ray against error (replotted from tradeoff.csv)");
-        isomarch::tradeoff::plot(&points, &title, &dir.join("tradeoff.png"), &dir.join("tradeoff.svg"))?;
-        eprintln!("wrote {}/tradeoff.png, .svg from its tradeoff.csv", dir.display());
-        return Ok(());
-    }
-    if isomarch::molecule::is_molecule(&path) || path.extension().is_some_and(|e| e.eq_ignore_ascii_case("psf")) {
-        bail!(
-            "{}: tradeoff takes a scene file (.ron), not a molecule; `isomarch scene {} -o scene.ron` writes the molecule's",
-            path.display(),
-            path.display()
-        );
-    }
-    let scene = Scene::load(&path)?.at_time(0.0);
-    let default = if quick { "segment,quadratic-taylor" } else { "sphere,segment,linear-taylor,quadratic-taylor,quadratic" };
-    let methods = checks::methods(methods.as_deref().unwrap_or(default))?;
-    let mut sweep = if quick { isomarch::tradeoff::Sweep::quick(methods) } else { isomarch::tradeoff::Sweep::full(methods) };
-    if !min_steps.is_empty() {
-        sweep.min_steps = min_steps;
-    }
-    if !max_steps.is_empty() {
-        sweep.max_steps = max_steps;
-    }
-    if let Some(n) = rays {
-        sweep.rays = n;
-    }
-    sweep.seed = seed;
-    sweep.any_hit = any_hit;
-    sweep.check()?;
+    let (scene, sweep, dir, stem, gpu) = match Plan::try_from(args)? {
+        Plan::Replot { dir, stem } => {
+            let csv = dir.join("tradeoff.csv");
+            let text = std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
+            let points = isomarch::tradeoff::read_csv(&text).with_context(|| csv.display().to_string())?;
+            let title = format!("{stem}: time per ray against error (replotted from tradeoff.csv)");
+            isomarch::tradeoff::plot(&points, &title, &dir.join("tradeoff.png"), &dir.join("tradeoff.svg"))?;
+            eprintln!("wrote {}/tradeoff.png, .svg from its tradeoff.csv", dir.display());
+            return Ok(());
+        }
+        Plan::Sweep { scene, sweep, dir, stem, gpu } => (scene, sweep, dir, stem, gpu),
+    };
     let gpu = gpu.open()?;
     let total = sweep.methods.len() * sweep.min_steps.len() * sweep.max_steps.len();
     let bar = indicatif::ProgressBar::new(total as u64);
