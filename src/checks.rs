@@ -118,6 +118,22 @@ pub fn ao_distance(d: f64) -> Result<f64> {
     Ok(d)
 }
 
+/// `--zoom`: how many times closer the eye moves.
+pub fn zoom(f: f64) -> Result<f64> {
+    if !(f.is_finite() && f > 0.0) {
+        bail!("--zoom must be a positive factor, got {f}");
+    }
+    Ok(f)
+}
+
+/// `--fov`: the vertical field of view, degrees.
+pub fn fov(deg: f64) -> Result<f64> {
+    if !(deg.is_finite() && deg > 0.0 && deg < 180.0) {
+        bail!("--fov must be between 0 and 180 degrees, got {deg}");
+    }
+    Ok(deg)
+}
+
 /// `--preview-ms` of `view`.
 pub fn preview(ms: f64) -> Result<Duration> {
     if !(ms.is_finite() && ms > 0.0) {

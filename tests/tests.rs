@@ -31,3 +31,4 @@ mod scaling;
 mod scene_files;
 mod scene_input;
 mod trajectories;
+mod view_flags;

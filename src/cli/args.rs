@@ -161,17 +161,6 @@ pub struct MarchArgs {
 }
 
 impl MarchArgs {
-    /// These overrides, for every scene a command opens.
-    pub fn adjust(&self) -> Adjust {
-        let overrides = self.clone();
-        Arc::new(move |scene| overrides.apply(scene))
-    }
-
-    /// Opens a command's input: `source`'s files with these overrides.
-    pub fn open(&self, source: &Source) -> Result<Input> {
-        source.open(self.adjust())
-    }
-
     /// Checks the overrides and writes them into `scene`'s marching
     /// settings.
     pub fn apply(&self, scene: &mut Scene) -> Result<()> {
@@ -215,13 +204,56 @@ pub struct SceneFlags {
     #[command(flatten)]
     pub march: MarchArgs,
     #[command(flatten)]
+    pub view: ViewFlags,
+    #[command(flatten)]
     pub gpu: GpuArgs,
 }
 
 impl SceneFlags {
     /// Opens `path` (and `trajectory`) with these flags and `play`'s frame
-    /// and framing.
+    /// and framing: the marching overrides and the view applied to every
+    /// scene opened.
     pub fn open(&self, path: &Path, trajectory: Option<&Path>, play: &PlayArgs) -> Result<Input> {
-        self.march.open(&self.molecule.source(path, trajectory, play))
+        let (march, view) = (self.march.clone(), self.view.clone());
+        let adjust: Adjust = Arc::new(move |scene| {
+            march.apply(scene)?;
+            view.apply(scene)
+        });
+        self.molecule.source(path, trajectory, play).open(adjust)
+    }
+}
+
+/// The view from the command line: turns of the camera about its target
+/// (VTK's and ParaView's Azimuth, Elevation and Roll: the camera moves),
+/// a zoom and a field of view, applied to the scene's camera.
+#[derive(Args, Clone)]
+pub struct ViewFlags {
+    /// Turn the camera about its target: AXIS:DEGREES with the view's axes,
+    /// y (vertical: the eye moves right for positive degrees), x
+    /// (horizontal: the eye rises), z (the view rolls counterclockwise).
+    /// Repeatable; applied in the order given.
+    #[arg(long, value_name = "AXIS:DEGREES")]
+    pub turn: Vec<isomarch::scene::turn::Turn>,
+    /// Move the eye this many times closer to the target (below 1: away).
+    #[arg(long, value_name = "F")]
+    pub zoom: Option<f64>,
+    /// Vertical field of view, degrees (default: the scene's camera).
+    #[arg(long, value_name = "DEG")]
+    pub fov: Option<f64>,
+}
+
+impl ViewFlags {
+    /// Checks the view flags and applies them to `scene`'s camera.
+    pub fn apply(&self, scene: &mut Scene) -> Result<()> {
+        for &turn in &self.turn {
+            scene.camera = scene.camera.turned(turn);
+        }
+        if let Some(f) = self.zoom {
+            scene.camera = scene.camera.zoomed(checks::zoom(f)?);
+        }
+        if let Some(deg) = self.fov {
+            scene.camera.fov_y_deg = checks::fov(deg)?;
+        }
+        Ok(())
     }
 }

@@ -3,6 +3,7 @@
 
 pub mod file;
 pub mod hrbf;
+pub mod turn;
 
 use std::path::Path;
 

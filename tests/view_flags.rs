@@ -1,0 +1,104 @@
+//! The view from the command line (`--turn`, `--zoom`, `--fov`): a turn of
+//! the camera is the world turned back, and a blob's disc has the size the
+//! perspective gives it, through the binary.
+
+use std::path::PathBuf;
+
+use crate::common::*;
+use glam::{DQuat, DVec3};
+use isomarch::Method;
+use isomarch::render::offscreen::{RenderJob, render_frame};
+use isomarch::scene::Primitive;
+use isomarch::scene::turn::{Turn, ViewAxis};
+
+/// Five compact blobs about the origin (not symmetric about the vertical),
+/// one light, the bounds their supports'.
+fn blobs() -> isomarch::scene::Scene {
+    let centres = [(0.0, 0.0, 0.0), (1.6, 0.4, 0.2), (-0.8, 1.1, 0.9), (0.3, -1.2, -1.4), (-1.5, -0.3, 0.6)];
+    let prims: Vec<Primitive> = centres.iter().map(|&(x, y, z)| compact(DVec3::new(x, y, z), 1.3)).collect();
+    scene(vec![prims], 0.5, Method::QuadraticTaylor, 1e-3)
+}
+
+/// `--turn y:90` moves the camera a quarter about the vertical through
+/// the target: the image is the world (blobs and light) turned a quarter
+/// back, byte for byte; and the binary's flags render the library's turned
+/// camera byte for byte.
+#[test]
+fn a_turn_of_the_camera_is_the_world_turned_back() {
+    let ctx = gpu();
+    let base = blobs();
+    let turn = Turn { axis: ViewAxis::Y, degrees: 90.0 };
+    let mut turned = base.clone();
+    turned.camera = base.camera.turned(turn);
+    let back = DQuat::from_axis_angle(DVec3::Y, -90f64.to_radians());
+    let mut world = base.clone();
+    for group in &mut world.groups {
+        for p in group.iter_mut() {
+            if let Primitive::Point { center, .. } = p {
+                *center = back * *center;
+            }
+        }
+    }
+    for l in &mut world.lights {
+        l.direction = back * l.direction;
+    }
+    world.bounds = world.support_bounds();
+    let frame = |s: &isomarch::scene::Scene| {
+        let job = RenderJob::new(s.clone(), Method::QuadraticTaylor, (64, 64), PathBuf::new(), std::time::Duration::from_secs(300));
+        render_frame(&ctx, &job).unwrap().0.shaded()
+    };
+    let (a, b, still) = (frame(&turned), frame(&world), frame(&base));
+    let differing = |x: &image::RgbImage, y: &image::RgbImage| {
+        x.pixels().zip(y.pixels()).filter(|(p, q)| p.0.iter().zip(q.0).any(|(u, v)| u.abs_diff(v) > 8)).count()
+    };
+    assert!(differing(&a, &still) > 100, "a quarter turn changes nothing: the blobs look the same from the side");
+    // Byte for byte: the rays differ in their last bits at most, which no
+    // 8-bit pixel of this frame shows (measured: 0 pixels differ).
+    let d = a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count();
+    assert!(d == 0, "the camera turned a quarter differs from the world turned back in {d} pixels");
+    assert_no_validation(&ctx);
+    // Through the binary, on a scene file: the library's turned camera.
+    let dir = scratch("view-turn");
+    let (flag, turned_file) = (dir.join("flag.png"), dir.join("turned.png"));
+    run_ok(&["render", "scenes/fig10.ron", "--size", "48x48", "--turn", "y:90", "--turn", "x:20", "-o", flag.to_str().unwrap()]);
+    let mut fig10 = isomarch::scene::Scene::load(&repo_root().join("scenes/fig10.ron")).unwrap();
+    fig10.camera = fig10.camera.turned(turn).turned(Turn { axis: ViewAxis::X, degrees: 20.0 });
+    let job = RenderJob::new(fig10.clone(), fig10.marching.method, (48, 48), turned_file.clone(), std::time::Duration::from_secs(300));
+    let shown = render_frame(&ctx, &job).unwrap().0.shaded();
+    assert!(image::open(&flag).unwrap().to_rgb8() == shown, "--turn y:90 --turn x:20 renders otherwise than the camera turned so");
+}
+
+/// A blob sphere of radius ρ at the target, seen from distance d with a
+/// vertical field of view φ on H pixels, is a disc of radius
+/// tan(asin(ρ/d)) / tan(φ/2) · H/2 pixels: by its covered area, within a
+/// pixel, as given, with `--zoom 2` (d halved) and with `--fov 20`.
+#[test]
+fn zoom_and_field_of_view_size_a_spheres_disc() {
+    let dir = scratch("view-zoom");
+    let path = dir.join("ball.ron");
+    std::fs::write(
+        &path,
+        r#"Scene(
+    camera: (eye: (0.0, 0.0, 12.0), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96)),
+    background: (0.0, 0.0, 0.0),
+    iso: 0.5,
+    marching: (method: "quadratic-taylor", min_step: 0.001),
+    groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))])],
+)"#,
+    )
+    .unwrap();
+    let rho = 2.0 * (1.0 - 0.5f64.cbrt()).sqrt();
+    for (flags, d, fov) in [(&[][..], 12.0f64, 30.0f64), (&["--zoom", "2"][..], 6.0, 30.0), (&["--fov", "20"][..], 12.0, 20.0)] {
+        let png = dir.join("ball.png");
+        isomarch(["render", path.to_str().unwrap(), "-o", png.to_str().unwrap()]).args(flags).ok();
+        let img = image::open(&png).unwrap().to_rgb8();
+        let covered = img.pixels().filter(|p| p.0.iter().any(|&c| c > 0)).count() as f64;
+        let measured = (covered / std::f64::consts::PI).sqrt();
+        let expected = (rho / d).asin().tan() / (0.5 * fov).to_radians().tan() * 48.0;
+        assert!((measured - expected).abs() < 1.0, "{flags:?}: a disc of radius {measured:.2} pixels, expected {expected:.2}");
+    }
+    for (flag, value, says) in [("--zoom", "0", "--zoom must be a positive factor"), ("--fov", "180", "--fov must be between 0 and 180 degrees")] {
+        let err = isomarch(["render", path.to_str().unwrap(), "-o", dir.join("x.png").to_str().unwrap(), flag, value]).fails_in_one_line();
+        assert!(err.contains(says), "{err}");
+    }
+}
