@@ -13,8 +13,8 @@ use crate::method::{Method, parse_list};
 /// `--samples`: rays per pixel.
 pub use crate::render::offscreen::check_samples as samples;
 
-/// The largest image side (`--size`), in pixels.
-pub const MAX_SIDE: u32 = 16384;
+/// The largest image side (`--size`), in pixels: the scene file's.
+pub use crate::scene::MAX_SIDE;
 
 /// `--size` given as `WxH`.
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {

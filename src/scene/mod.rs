@@ -45,6 +45,10 @@ pub struct Camera {
     pub samples: u32,
 }
 
+/// The largest image side, in pixels: a scene's `camera.resolution`,
+/// `--size` and Python's sizes alike.
+pub const MAX_SIDE: u32 = 16384;
+
 /// The most rays per pixel a scene or `--samples` may ask for.
 pub const MAX_SAMPLES: u32 = 4096;
 /// The most ambient-occlusion rays per hit a scene or `--ao` may ask for.
@@ -444,8 +448,8 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         return Err(c.err("camera.fov_y", format!("must be in (0, 180) degrees, got {fov}")));
     }
     let (w, h) = cam.resolution;
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        return Err(c.err("camera.resolution", format!("must be 1..=16384 pixels each way, got ({w}, {h})")));
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
+        return Err(c.err("camera.resolution", format!("must be 1..={MAX_SIDE} pixels each way, got ({w}, {h})")));
     }
     if !(1..=MAX_SAMPLES).contains(&cam.samples) {
         return Err(c.err("camera.samples", format!("must be 1..={MAX_SAMPLES} rays per pixel, got {}", cam.samples)));
