@@ -81,7 +81,7 @@ impl Source<'_> {
         }
         let t = molecule::trajectory::open(path, self.trajectory)?;
         let frames = t.len();
-        let mut stager = Stager::new(t, self.molecule, self.framing)?.with_adjust(Box::new(move |s| adjust(s)));
+        let mut stager = Stager::new(t, self.molecule.clone(), self.framing)?.with_adjust(Box::new(move |s| adjust(s)));
         let (_, time, notes) = stager.text(0)?;
         for w in &notes.warnings {
             eprintln!("warning: {w}");

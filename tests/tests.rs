@@ -30,5 +30,6 @@ mod refinement;
 mod scaling;
 mod scene_files;
 mod scene_input;
+mod selections;
 mod trajectories;
 mod view_flags;

@@ -1,7 +1,7 @@
 """Type hints of the native module (python/src/lib.rs); use the classes of
 ``isomarch`` instead."""
 
-from typing import Optional, Tuple
+from typing import Any, Optional, Tuple
 
 import numpy as np
 
@@ -14,6 +14,7 @@ class MoleculeOptions:
     """How a molecule becomes a scene; each field left out is the command
     line's default."""
 
+    select: str
     hydrogens: bool
     sharpness: float
     radius_scale: float
@@ -23,11 +24,15 @@ class MoleculeOptions:
     def __init__(
         self,
         *,
+        select: Optional[str] = None,
         hydrogens: Optional[bool] = None,
         sharpness: Optional[float] = None,
         radius_scale: Optional[float] = None,
         iso: Optional[float] = None,
         coloring: Optional[str] = None,
+        palette: Optional[str] = None,
+        range: Optional[Tuple[float, float]] = None,
+        values: Optional[Any] = None,
         turntable: Optional[float] = None,
     ) -> None: ...
 

@@ -12,6 +12,8 @@ use isomarch::Method;
 use isomarch::gpu::{Context, ContextOptions};
 use isomarch::layout::FLAG_HIT;
 use isomarch::molecule::build::{atoms_scene, load_scene};
+use isomarch::molecule::color::{Palette, Range, Values};
+use isomarch::molecule::select::Selection;
 use isomarch::molecule::{Coloring, MoleculeChoices, MoleculeOptions, elements};
 use isomarch::render::offscreen::{RenderJob, render_frame_indexed};
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
@@ -86,18 +88,41 @@ struct NativeMoleculeOptions {
 #[pymethods]
 impl NativeMoleculeOptions {
     #[new]
-    #[pyo3(signature = (*, hydrogens=None, sharpness=None, radius_scale=None, iso=None, coloring=None, turntable=None))]
+    #[pyo3(signature = (*, select=None, hydrogens=None, sharpness=None, radius_scale=None, iso=None, coloring=None, palette=None, range=None, values=None, turntable=None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
+        select: Option<String>,
         hydrogens: Option<bool>,
         sharpness: Option<f64>,
         radius_scale: Option<f64>,
         iso: Option<f64>,
         coloring: Option<Choice<Coloring>>,
+        palette: Option<Choice<Palette>>,
+        range: Option<(f64, f64)>,
+        values: Option<Bound<'_, PyAny>>,
         turntable: Option<f64>,
     ) -> PyResult<Self> {
-        let options =
-            MoleculeChoices { hydrogens, sharpness, radius_scale, iso, coloring: coloring.map(|c| c.0), turntable }.options().map_err(raise)?;
-        Ok(NativeMoleculeOptions { options })
+        let select = select.map(|s| s.parse::<Selection>().map_err(|e| raise(anyhow::anyhow!("select: {e}")))).transpose()?;
+        let range = range.map(|(min, max)| Range::parse(&format!("{min}:{max}")).map_err(raise)).transpose()?;
+        let values = values.map(|v| values_of(&v)).transpose()?.map(Arc::new);
+        let choices = MoleculeChoices {
+            select,
+            values,
+            hydrogens,
+            sharpness,
+            radius_scale,
+            iso,
+            coloring: coloring.map(|c| c.0),
+            palette: palette.map(|p| p.0),
+            range,
+            turntable,
+        };
+        Ok(NativeMoleculeOptions { options: choices.options().map_err(raise)? })
+    }
+
+    #[getter]
+    fn select(&self) -> String {
+        self.options.selection().to_string()
     }
 
     #[getter]
@@ -134,7 +159,8 @@ impl NativeMoleculeOptions {
     fn __repr__(&self) -> String {
         let o = &self.options;
         format!(
-            "MoleculeOptions(hydrogens={}, sharpness={}, radius_scale={}, iso={}, coloring={:?}, turntable={})",
+            "MoleculeOptions(select={:?}, hydrogens={}, sharpness={}, radius_scale={}, iso={}, coloring={:?}, turntable={})",
+            self.select(),
             if o.hydrogens { "True" } else { "False" },
             o.sharpness,
             o.radius_scale,
@@ -143,6 +169,19 @@ impl NativeMoleculeOptions {
             o.turntable.map_or("None".to_string(), |t| t.to_string())
         )
     }
+}
+
+/// Values to colour by from a numpy array: one value per atom (N), or one
+/// row per frame (T x N).
+fn values_of(v: &Bound<'_, PyAny>) -> PyResult<Values> {
+    let rows = if let Ok(a) = v.extract::<PyReadonlyArray2<'_, f64>>() {
+        a.as_array().rows().into_iter().map(|r| r.to_vec()).collect()
+    } else if let Ok(a) = v.extract::<PyReadonlyArray1<'_, f64>>() {
+        vec![a.as_array().to_vec()]
+    } else {
+        return Err(IsomarchError::new_err("values must be a numpy array of float64, one value per atom (N) or per frame and atom (T x N)"));
+    };
+    Values::from_rows(rows, "values").map_err(raise)
 }
 
 /// A scene file, or a molecule file with the default molecule options (as
@@ -159,7 +198,7 @@ fn scene_load(py: Python<'_>, path: PathBuf) -> PyResult<(NativeScene, Vec<Strin
 
 #[pyfunction]
 fn scene_from_molecule(py: Python<'_>, path: PathBuf, options: &NativeMoleculeOptions) -> PyResult<(NativeScene, Vec<String>, String)> {
-    let o = options.options;
+    let o = options.options.clone();
     let (scene, notes) = py.detach(|| load_scene(&path, &o)).map_err(raise)?;
     Ok((NativeScene { scene }, notes.warnings, notes.summary))
 }
@@ -171,7 +210,7 @@ fn scene_from_atoms(
     colors: Option<PyReadonlyArray2<'_, f64>>,
     options: &NativeMoleculeOptions,
 ) -> PyResult<NativeScene> {
-    let o = options.options;
+    let o = options.options.clone();
     let p = positions.as_array();
     if p.ncols() != 3 {
         return Err(IsomarchError::new_err(format!("positions must have shape (N, 3), got {:?}", p.shape())));
@@ -394,7 +433,7 @@ fn trajectory_open(
     options: &NativeMoleculeOptions,
 ) -> PyResult<(NativeTrajectory, Vec<String>, String)> {
     use isomarch::molecule::playback::Stager;
-    let (o, rule) = (options.options, framing.0);
+    let (o, rule) = (options.options.clone(), framing.0);
     let (stager, notes) = py
         .detach(|| -> anyhow::Result<_> {
             let t = isomarch::molecule::trajectory::open(&topology, trajectory.as_deref())?;

@@ -97,8 +97,9 @@ def test_from_atoms_with_a_pdbs_coordinates_is_from_molecule_on_that_pdb(rendere
     assert all(r is not None for r in radii)
     colors = [isomarch.element_color(e) for e in elements]
     atoms = isomarch.Scene.from_atoms(positions, radii, colors)
-    molecule = isomarch.Scene.from_molecule(PDB)
-    assert isomarch.Scene.load(PDB).primitive_count == molecule.primitive_count
+    # Every atom, its 88 crystal waters too (left out by default).
+    molecule = isomarch.Scene.from_molecule(PDB, select="all")
+    assert isomarch.Scene.load(PDB).primitive_count == 644 - 88
     assert molecule.summary.endswith("644 atoms, 1 chain"), molecule.summary
     assert atoms.primitive_count == molecule.primitive_count == len(elements) == 644
     a = renderer.render(atoms, size=(48, 48))
@@ -286,7 +287,7 @@ def test_molecule_options_take_the_clis_defaults_and_checks(tmp_path):
     with pytest.raises(isomarch.IsomarchError) as e:
         isomarch.MoleculeOptions(sharpness=-1)
     assert str(e.value) == message[len("error: "):]
-    with pytest.raises(isomarch.IsomarchError, match='expected one of "element", "chain", "none", got "chian"'):
+    with pytest.raises(isomarch.IsomarchError, match='expected one of "element", "chain", "bfactor", "occupancy", "restype", "resname", "values", "none", got "chian"'):
         isomarch.MoleculeOptions(coloring="chian")
     with pytest.raises(isomarch.IsomarchError, match='expected one of "first", "all", got "every"'):
         isomarch.Trajectory(PDB, framing="every")
@@ -325,3 +326,32 @@ def test_trajectories_default_framing_xtc_input_and_models_alone(renderer, tmp_p
     cli("render", models, "--frame", "1", "-o", tmp_path / "model1.png", "--size", "32x32")
     assert renderer.render(alone[1], size=(32, 32)).png() == (tmp_path / "model1.png").read_bytes(), "model 1"
     assert renderer.render(alone[0], size=(32, 32)).png() != (tmp_path / "model1.png").read_bytes(), "models 0 and 1 alike"
+
+
+def test_selections_and_values_per_frame_equal_the_clis(renderer, tmp_path):
+    # A selection as the command line's --select: the same scene.
+    out = tmp_path / "sel.ron"
+    cli("scene", PDB, "-o", out, "--select", "resid 151 to 170 and not water")
+    chosen = isomarch.Scene.from_molecule(PDB, select="resid 151 to 170 and not water")
+    assert chosen.primitive_count == isomarch.Scene.load(out).primitive_count == 180, chosen.primitive_count
+    assert isomarch.MoleculeOptions().select == "not (water or ion)"
+    message = cli("scene", PDB, "-o", out, "--select", "chian A", check=False).stderr.strip()
+    with pytest.raises(isomarch.IsomarchError) as e:
+        isomarch.MoleculeOptions(select="chian A")
+    assert str(e.value) == message[len("error: "):].replace("--select: ", "select: ")
+    # Values per frame of a trajectory (T x N): a CSV of one row per frame
+    # for the command line, the same numbers as a numpy array for Python,
+    # frame by frame the same image.
+    top, traj = ROOT / "tests/data/trajectories/adk.psf", ROOT / "tests/data/trajectories/adk_dims.dcd"
+    values = np.random.default_rng(7).uniform(0.0, 100.0, size=(3, 3341))
+    csv = tmp_path / "values.csv"
+    np.savetxt(csv, values, delimiter=",", fmt="%.17g")
+    cli("render", top, traj, "--color-values", csv, "--frames", "0..3", "-o", tmp_path / "v_#.png", "--size", "40x40")
+    frames = isomarch.Trajectory(top, traj, values=values)
+    for k in range(3):
+        assert renderer.render(frames[k], size=(40, 40)).png() == (tmp_path / f"v_{k}.png").read_bytes(), f"frame {k}"
+    # The colours follow the rows: frame 1 with row 0's values differs.
+    same = isomarch.Trajectory(top, traj, values=values[[0, 0, 0]])
+    assert renderer.render(same[1], size=(40, 40)).png() != (tmp_path / "v_1.png").read_bytes(), "frame 1 took row 0's colours"
+    with pytest.raises(isomarch.IsomarchError, match="3 rows of values, none for frame 5"):
+        frames[5]

@@ -22,6 +22,11 @@ use isomarch::scene::Scene;
 /// .gz); a scene file given with one is refused.
 #[derive(Args)]
 pub struct MoleculeArgs {
+    /// The atoms drawn, in VMD's selection language: `protein`, `chain A
+    /// and resid 10 to 50`, `not water`, `within 5 of resname HEM`
+    /// (docs/molecules.md) [default: not (water or ion)].
+    #[arg(long, value_name = "EXPR")]
+    pub select: Option<String>,
     /// Keep hydrogen atoms (left out by default).
     #[arg(long)]
     pub hydrogens: bool,
@@ -35,9 +40,23 @@ pub struct MoleculeArgs {
     /// surface at its radius, more shrinks the surface [default: 1].
     #[arg(long)]
     pub iso: Option<f64>,
-    /// Colour atoms by element (Jmol CPK colours), by chain, or not at all [default: element].
+    /// Colour atoms by element (Jmol CPK colours), chain, B-factor or
+    /// occupancy (through --palette over --range), residue class or name,
+    /// or not at all [default: element].
     #[arg(long, value_enum)]
     pub color: Option<isomarch::molecule::Coloring>,
+    /// The palette of --color bfactor and occupancy [default: viridis].
+    #[arg(long, value_enum)]
+    pub palette: Option<isomarch::molecule::color::Palette>,
+    /// The values at the palette's ends, MIN:MAX [default: the least and
+    /// greatest of the atoms drawn].
+    #[arg(long, value_name = "MIN:MAX", allow_hyphen_values = true)]
+    pub range: Option<String>,
+    /// Colour atoms by values from a CSV file: one value per atom (of the
+    /// file, or of the atoms drawn), on one line or one per line, or one
+    /// line per frame of a trajectory.
+    #[arg(long, value_name = "FILE")]
+    pub color_values: Option<std::path::PathBuf>,
     /// Turntable: the camera circles the molecule once per SECONDS of
     /// scene time (the viewer plays it; `render --frames` renders it).
     #[arg(long, value_name = "SECONDS")]
@@ -45,27 +64,37 @@ pub struct MoleculeArgs {
 }
 
 impl MoleculeArgs {
-    /// The choices made: `--hydrogens` absent is no choice.
-    fn choices(&self) -> MoleculeChoices {
-        MoleculeChoices {
+    /// The choices made: `--hydrogens` absent is no choice. The
+    /// selection, range and values file are read here, each problem one
+    /// line.
+    fn choices(&self) -> Result<MoleculeChoices> {
+        let select = self.select.as_deref().map(|s| s.parse().map_err(|e| anyhow::anyhow!("--select: {e}"))).transpose()?;
+        let range = self.range.as_deref().map(isomarch::molecule::color::Range::parse).transpose()?;
+        let values = self.color_values.as_deref().map(isomarch::molecule::color::Values::read).transpose()?.map(Arc::new);
+        Ok(MoleculeChoices {
+            select,
+            values,
             hydrogens: self.hydrogens.then_some(true),
             sharpness: self.sharpness,
             radius_scale: self.radius_scale,
             iso: self.iso,
             coloring: self.color,
+            palette: self.palette,
+            range,
             turntable: self.turntable,
-        }
+        })
     }
 
     /// The options, defaults where not given (checked where they are used).
-    pub fn options(&self) -> MoleculeOptions {
-        self.choices().resolve()
+    pub fn options(&self) -> Result<MoleculeOptions> {
+        Ok(self.choices()?.resolve())
     }
 
     /// The input files of a command, read with these options, `play`'s
     /// frame and framing.
-    pub fn source<'a>(&self, path: &'a Path, trajectory: Option<&'a Path>, play: &PlayArgs) -> Source<'a> {
-        Source { path, trajectory, molecule: self.options(), molecule_flags: self.choices().flags(), frame: play.frame, framing: play.framing }
+    pub fn source<'a>(&self, path: &'a Path, trajectory: Option<&'a Path>, play: &PlayArgs) -> Result<Source<'a>> {
+        let choices = self.choices()?;
+        Ok(Source { path, trajectory, molecule: choices.resolve(), molecule_flags: choices.flags(), frame: play.frame, framing: play.framing })
     }
 }
 
@@ -219,7 +248,7 @@ impl SceneFlags {
             march.apply(scene)?;
             view.apply(scene)
         });
-        self.molecule.source(path, trajectory, play).open(adjust)
+        self.molecule.source(path, trajectory, play)?.open(adjust)
     }
 }
 

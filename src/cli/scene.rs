@@ -34,7 +34,7 @@ pub fn run(args: SceneArgs) -> Result<()> {
     if !args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron")) {
         bail!("-o {}: a scene file must end in .ron", args.output.display());
     }
-    let opened = args.molecule_args.source(&args.molecule, args.trajectory.as_deref(), &args.play).read(unchanged())?;
+    let opened = args.molecule_args.source(&args.molecule, args.trajectory.as_deref(), &args.play)?.read(unchanged())?;
     let (text, source) = match opened {
         Opened::Frames(mut stager) => {
             let k = args.play.frame.unwrap_or(0);
@@ -42,7 +42,7 @@ pub fn run(args: SceneArgs) -> Result<()> {
         }
         Opened::SceneFile => bail!("{}: not a molecule file: expected .pdb, .ent, .cif, .mmcif or .gro, optionally .gz", args.molecule.display()),
         Opened::Molecule(m, _) => {
-            let (text, notes) = isomarch::molecule::build::scene_text(&m, &args.molecule_args.options())?;
+            let (text, notes) = isomarch::molecule::build::scene_text(&m, &args.molecule_args.options()?)?;
             for w in &notes.warnings {
                 eprintln!("warning: {w}");
             }

@@ -19,7 +19,11 @@ use std::fmt::Write as _;
 use anyhow::{Result, bail};
 use glam::DVec3;
 
-use super::{Molecule, elements};
+use std::sync::Arc;
+
+use super::color::{self, Palette, Range, Values};
+use super::select::{self, Selection};
+use super::{Atom, Molecule, elements};
 use crate::scene::Scene;
 
 /// Default sharpness s of the atoms' Gaussians `e^{-s d²/r²}`. dynamol's
@@ -50,13 +54,63 @@ pub enum Coloring {
     /// By chain (Tableau 10, in the order chains appear; GRO files: a
     /// chain ends where residue numbers start again).
     Chain,
+    /// By B-factor (temperature factor; AlphaFold's pLDDT), through
+    /// `--palette` over `--range`.
+    Bfactor,
+    /// By occupancy, through `--palette` over `--range`.
+    Occupancy,
+    /// By residue class (VMD's ResType): nonpolar white, polar green,
+    /// acidic red, basic blue; other residues by element.
+    Restype,
+    /// By residue name (Jmol's shapely colours for amino acids and
+    /// nucleotides); other residues by element.
+    Resname,
+    /// By the values of `--color-values FILE` (or Python's `values=`),
+    /// through `--palette` over `--range`.
+    Values,
     /// One colour for the whole surface (the scene's `surface`).
     None,
 }
 
+impl Coloring {
+    /// The per-atom value it colours by, through a palette, if any.
+    pub fn value(self) -> Option<fn(&super::Atom) -> f64> {
+        match self {
+            Coloring::Bfactor => Some(|a| a.beta),
+            Coloring::Occupancy => Some(|a| a.occupancy),
+            Coloring::Values => Some(|_| f64::NAN),
+            _ => None,
+        }
+    }
+
+    /// Its name on the command line.
+    pub fn name(self) -> String {
+        clap::ValueEnum::to_possible_value(&self).map_or_else(String::new, |v| v.get_name().to_string())
+    }
+
+    /// What the scene file's comment says it colours by.
+    fn describe(self) -> &'static str {
+        match self {
+            Coloring::Element => "element (Jmol)",
+            Coloring::Chain => "chain",
+            Coloring::Bfactor => "B-factor",
+            Coloring::Values => "values given",
+            Coloring::Occupancy => "occupancy",
+            Coloring::Restype => "residue class (VMD ResType)",
+            Coloring::Resname => "residue name (Jmol shapely)",
+            Coloring::None => "nothing (surface)",
+        }
+    }
+}
+
 /// How a molecule becomes a scene; every field has a command-line flag.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct MoleculeOptions {
+    /// The atoms drawn; `None`: [`select::DEFAULT`], all but water and
+    /// ions.
+    pub select: Option<Selection>,
+    /// Values to colour by (`Coloring::Values`), shared by every frame.
+    pub values: Option<Arc<Values>>,
     /// Keep hydrogen atoms (left out by default: most crystal structures
     /// have none, and in those that do they hide under their heavy atoms).
     pub hydrogens: bool,
@@ -64,6 +118,11 @@ pub struct MoleculeOptions {
     pub radius_scale: f64,
     pub iso: f64,
     pub coloring: Coloring,
+    /// The palette of colourings by value; `None`: viridis.
+    pub palette: Option<Palette>,
+    /// The values at the palette's ends; `None`: the least and greatest
+    /// of the atoms drawn.
+    pub range: Option<Range>,
     /// Seconds per turn of a turntable camera (an orbit about the
     /// vertical axis through the molecule's centre); `None`: still.
     pub turntable: Option<f64>,
@@ -71,19 +130,34 @@ pub struct MoleculeOptions {
 
 impl Default for MoleculeOptions {
     fn default() -> Self {
-        MoleculeOptions { hydrogens: false, sharpness: SHARPNESS, radius_scale: RADIUS_SCALE, iso: ISO, coloring: Coloring::Element, turntable: None }
+        MoleculeOptions {
+            select: None,
+            values: None,
+            hydrogens: false,
+            sharpness: SHARPNESS,
+            radius_scale: RADIUS_SCALE,
+            iso: ISO,
+            coloring: Coloring::Element,
+            palette: None,
+            range: None,
+            turntable: None,
+        }
     }
 }
 
 /// Molecule options as a user gives them (the command line's flags,
 /// Python's keywords): each one left out takes its default.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct MoleculeChoices {
+    pub select: Option<Selection>,
+    pub values: Option<Arc<Values>>,
     pub hydrogens: Option<bool>,
     pub sharpness: Option<f64>,
     pub radius_scale: Option<f64>,
     pub iso: Option<f64>,
     pub coloring: Option<Coloring>,
+    pub palette: Option<Palette>,
+    pub range: Option<Range>,
     pub turntable: Option<f64>,
 }
 
@@ -93,11 +167,16 @@ impl MoleculeChoices {
     pub fn resolve(&self) -> MoleculeOptions {
         let d = MoleculeOptions::default();
         MoleculeOptions {
+            select: self.select.clone(),
+            values: self.values.clone(),
             hydrogens: self.hydrogens.unwrap_or(d.hydrogens),
             sharpness: self.sharpness.unwrap_or(d.sharpness),
             radius_scale: self.radius_scale.unwrap_or(d.radius_scale),
             iso: self.iso.unwrap_or(d.iso),
-            coloring: self.coloring.unwrap_or(d.coloring),
+            // Values given colour by themselves unless told otherwise.
+            coloring: self.coloring.unwrap_or(if self.values.is_some() { Coloring::Values } else { d.coloring }),
+            palette: self.palette.or(d.palette),
+            range: self.range.or(d.range),
             turntable: self.turntable.or(d.turntable),
         }
     }
@@ -113,11 +192,15 @@ impl MoleculeChoices {
     /// counts as made).
     pub fn flags(&self) -> Vec<&'static str> {
         [
+            (self.select.is_some(), "--select"),
+            (self.values.is_some(), "--color-values"),
             (self.hydrogens.is_some(), "--hydrogens"),
             (self.sharpness.is_some(), "--sharpness"),
             (self.radius_scale.is_some(), "--radius-scale"),
             (self.iso.is_some(), "--iso"),
             (self.coloring.is_some(), "--color"),
+            (self.palette.is_some(), "--palette"),
+            (self.range.is_some(), "--range"),
             (self.turntable.is_some(), "--turntable"),
         ]
         .into_iter()
@@ -127,8 +210,16 @@ impl MoleculeChoices {
 }
 
 impl MoleculeOptions {
+    /// The selection of the atoms drawn.
+    pub fn selection(&self) -> Selection {
+        self.select.clone().unwrap_or_else(|| select::DEFAULT.parse().expect("the default selection parses"))
+    }
+
     /// One-line errors for values out of range.
     pub fn check(&self) -> Result<()> {
+        if self.values.is_some() && self.coloring != Coloring::Values {
+            bail!("--color-values colours by its values: --color {} cannot be given with it", self.coloring.name());
+        }
         if !(self.sharpness.is_finite() && self.sharpness > 0.0 && self.sharpness <= 80.0) {
             bail!("--sharpness must be in (0, 80] (the GPU's f32 holds e^s up to about s = 80), got {}", self.sharpness);
         }
@@ -142,6 +233,15 @@ impl MoleculeOptions {
             && !(t.is_finite() && t > 0.0)
         {
             bail!("--turntable must be a positive number of seconds per turn, got {t}");
+        }
+        if (self.palette.is_some() || self.range.is_some()) && self.coloring.value().is_none() {
+            let flag = if self.palette.is_some() { "--palette" } else { "--range" };
+            bail!("{flag} applies to colourings by value (--color bfactor, occupancy or --color-values), not to --color {}", self.coloring.name());
+        }
+        if let Some(r) = self.range
+            && !(r.min.is_finite() && r.max.is_finite() && r.min < r.max)
+        {
+            bail!("--range MIN:MAX needs finite numbers with MIN below MAX, got {r}");
         }
         Ok(())
     }
@@ -171,7 +271,23 @@ fn vec3(p: DVec3) -> String {
 
 /// The scene of `m` as RON text, with what is worth telling the user.
 pub fn scene_text(m: &Molecule, o: &MoleculeOptions) -> Result<(String, Notes)> {
-    staged_text(m, o, None, "")
+    staged_text(m, o, Stage::default())
+}
+
+/// What a trajectory's frame brings to [`staged_text`]: the camera kept
+/// from the first frame, a comment line, its index (for values per frame)
+/// and the atoms chosen once, on the first frame, so that a selection by
+/// distance draws the same atoms in every frame.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Stage<'a> {
+    /// The camera's framing; `None`: framed on the molecule itself.
+    pub framing: Option<Framing>,
+    /// A comment line after the first, or empty.
+    pub note: &'a str,
+    pub frame: usize,
+    /// Per atom of the molecule, whether it is selected; `None`: the
+    /// options' selection decides.
+    pub chosen: Option<&'a [bool]>,
 }
 
 /// Where the camera looks and how much it must hold: the sphere about
@@ -197,20 +313,48 @@ impl Framing {
     }
 }
 
-/// The balls `m` is drawn with under `o` (hydrogens left out unless asked
-/// for).
-pub fn balls_of(m: &Molecule, o: &MoleculeOptions) -> Vec<Ball> {
-    kept(m, o).iter().map(|a| Ball { center: a.position, radius: radius(&a.element, o), color: None }).collect()
+/// The balls `m` is drawn with under `o` (see [`kept`]).
+pub fn balls_of(m: &Molecule, o: &MoleculeOptions, chosen: Option<&[bool]>) -> Result<Vec<Ball>> {
+    Ok(kept(m, o, chosen)?.atoms.iter().map(|a| Ball { center: a.position, radius: radius(&a.element, o), color: None }).collect())
 }
 
 /// The sites of the atoms drawn, in the order of the scene's primitives.
-pub(crate) fn kept_sites(m: &Molecule, o: &MoleculeOptions) -> Vec<usize> {
-    kept(m, o).iter().map(|a| a.site).collect()
+pub(crate) fn kept_sites(m: &Molecule, o: &MoleculeOptions, chosen: Option<&[bool]>) -> Result<Vec<usize>> {
+    Ok(kept(m, o, chosen)?.atoms.iter().map(|a| a.site).collect())
 }
 
-/// The atoms drawn: hydrogens left out unless asked for.
-fn kept<'a>(m: &'a Molecule, o: &MoleculeOptions) -> Vec<&'a super::Atom> {
-    m.atoms.iter().filter(|a| o.hydrogens || !matches!(a.element.as_str(), "H" | "D")).collect()
+/// The atoms drawn, and how many were left out and why.
+pub(crate) struct Kept<'a> {
+    pub atoms: Vec<&'a Atom>,
+    /// Selected hydrogens left out (no `--hydrogens`).
+    pub hydrogens: usize,
+    /// Atoms the selection left out.
+    pub unselected: usize,
+}
+
+/// The atoms drawn: those the selection picks (`chosen`, else the
+/// options' selection, by default every atom but water and ions), of
+/// which hydrogens are left out unless asked for. A selection of no atoms
+/// is an error, as is one of hydrogens alone without `--hydrogens`.
+pub(crate) fn kept<'a>(m: &'a Molecule, o: &MoleculeOptions, chosen: Option<&[bool]>) -> Result<Kept<'a>> {
+    let evaluated;
+    let chosen = match chosen {
+        Some(c) => c,
+        None => {
+            evaluated = o.selection().matches(&m.atoms);
+            &evaluated
+        }
+    };
+    let selected: Vec<&Atom> = m.atoms.iter().zip(chosen).filter_map(|(a, &c)| c.then_some(a)).collect();
+    if selected.is_empty() {
+        bail!("{}: the selection '{}' picks none of its {} atoms", m.source, o.selection(), m.atoms.len());
+    }
+    let unselected = m.atoms.len() - selected.len();
+    let atoms: Vec<&Atom> = selected.iter().copied().filter(|a| o.hydrogens || !matches!(a.element.as_str(), "H" | "D")).collect();
+    if atoms.is_empty() {
+        bail!("{}: all {} atoms selected are hydrogens, which are left out unless --hydrogens is given", m.source, selected.len());
+    }
+    Ok(Kept { hydrogens: selected.len() - atoms.len(), unselected, atoms })
 }
 
 /// An element's radius as drawn (Bondi's, or the fallback, times the scale).
@@ -218,15 +362,11 @@ fn radius(symbol: &str, o: &MoleculeOptions) -> f64 {
     elements::radius(symbol).unwrap_or(elements::FALLBACK_RADIUS) * o.radius_scale
 }
 
-/// [`scene_text`] with the camera on `framing` (else on `m` itself) and
-/// `note` (a comment line, or empty) after the first comment: a
-/// trajectory's frame keeps the first frame's camera.
-pub fn staged_text(m: &Molecule, o: &MoleculeOptions, framing: Option<Framing>, note: &str) -> Result<(String, Notes)> {
+/// [`scene_text`] of a trajectory's frame (see [`Stage`]).
+pub fn staged_text(m: &Molecule, o: &MoleculeOptions, stage: Stage) -> Result<(String, Notes)> {
+    let Stage { framing, note, frame, chosen } = stage;
     o.check()?;
-    let atoms = kept(m, o);
-    if atoms.is_empty() {
-        bail!("{}: all {} atoms are hydrogens, which are left out unless --hydrogens is given", m.source, m.atoms.len());
-    }
+    let Kept { atoms, hydrogens, unselected } = kept(m, o, chosen)?;
     // Elements without a Bondi radius: one warning naming each with its
     // first line and count.
     let mut unknown: BTreeMap<&str, (usize, usize)> = BTreeMap::new();
@@ -254,7 +394,21 @@ pub fn staged_text(m: &Molecule, o: &MoleculeOptions, framing: Option<Framing>, 
             chains.push(&a.chain);
         }
     }
-    let color = |a: &super::Atom| -> Option<[f64; 3]> {
+    // Colourings by value: the range given, else the values' own (all
+    // frames' for values given per frame).
+    let given: Option<Vec<f64>> = match (&o.values, o.coloring) {
+        (Some(values), Coloring::Values) => Some(values_drawn(values, frame, m, &atoms)?),
+        (None, Coloring::Values) => bail!("--color values colours by the values of --color-values FILE, which was not given"),
+        _ => None,
+    };
+    let value_of = |i: usize, a: &Atom| given.as_ref().map_or_else(|| o.coloring.value().map_or(0.0, |v| v(a)), |g| g[i]);
+    let own = || match &o.values {
+        Some(v) if o.coloring == Coloring::Values => Some(v.range()),
+        _ => Range::of(atoms.iter().enumerate().map(|(i, a)| value_of(i, a))),
+    };
+    let range = o.range.or_else(own).unwrap_or(Range { min: 0.0, max: 1.0 });
+    let palette = o.palette.unwrap_or_default();
+    let color = |i: usize, a: &Atom| -> Option<[f64; 3]> {
         match o.coloring {
             Coloring::Element => Some(elements::color(&a.element)),
             Coloring::Chain => {
@@ -262,16 +416,29 @@ pub fn staged_text(m: &Molecule, o: &MoleculeOptions, framing: Option<Framing>, 
                 let c = colorous::TABLEAU10[i % colorous::TABLEAU10.len()];
                 Some([elements::linear(c.r), elements::linear(c.g), elements::linear(c.b)])
             }
+            Coloring::Bfactor | Coloring::Occupancy | Coloring::Values => Some(palette.color(value_of(i, a), range)),
+            Coloring::Restype => Some(color::restype(&a.resname).unwrap_or_else(|| elements::color(&a.element))),
+            Coloring::Resname => Some(color::shapely(&a.resname).unwrap_or_else(|| elements::color(&a.element))),
             Coloring::None => None,
         }
     };
-    let balls: Vec<Ball> = atoms.iter().map(|a| Ball { center: a.position, radius: radius(&a.element, o), color: color(a) }).collect();
-    let hydrogens = m.atoms.len() - atoms.len();
+    let balls: Vec<Ball> =
+        atoms.iter().enumerate().map(|(i, a)| Ball { center: a.position, radius: radius(&a.element, o), color: color(i, a) }).collect();
+    let mut left_out = Vec::new();
+    if unselected > 0 {
+        left_out.push(match &o.select {
+            None => format!("{unselected} water and ion atoms left out: --select all keeps them"),
+            Some(s) => format!("{unselected} not selected by '{s}'"),
+        });
+    }
+    if hydrogens > 0 {
+        left_out.push(format!("{hydrogens} hydrogens left out"));
+    }
     notes.summary = format!(
         "{}: {} atoms{}{}{}, {} chain{}",
         m.source,
         atoms.len(),
-        if hydrogens > 0 { format!(" ({hydrogens} hydrogens left out)") } else { String::new() },
+        if left_out.is_empty() { String::new() } else { format!(" ({})", left_out.join("; ")) },
         m.skipped_sites.map_or(String::new(), |(n, line)| format!(", {n} dummy or virtual sites skipped (first at line {line})")),
         if m.extra_models > 0 { format!(", first model only ({} more left out)", m.extra_models) } else { String::new() },
         chains.len(),
@@ -287,13 +454,33 @@ pub fn staged_text(m: &Molecule, o: &MoleculeOptions, framing: Option<Framing>, 
         num(o.radius_scale),
         num(o.sharpness),
         num(o.iso),
-        match o.coloring {
-            Coloring::Element => "element (Jmol)",
-            Coloring::Chain => "chain",
-            Coloring::None => "nothing (surface)",
+        match o.coloring.value() {
+            Some(_) if palette.uses_range() => format!("{} ({palette:?} palette over {range})", o.coloring.describe()),
+            Some(_) => format!("{} ({palette:?} palette)", o.coloring.describe()),
+            None => o.coloring.describe().to_string(),
         }
     );
     Ok((framed_text(&made_by, &balls, o, framing.unwrap_or_else(|| Framing::of(&balls))), notes))
+}
+
+/// The values of the atoms drawn at `frame`: a row holds one value per
+/// atom of the file (by site) or one per atom drawn (in order).
+fn values_drawn(values: &Values, frame: usize, m: &Molecule, atoms: &[&Atom]) -> Result<Vec<f64>> {
+    let row = values.row(frame)?;
+    if row.len() == m.sites {
+        Ok(atoms.iter().map(|a| row[a.site]).collect())
+    } else if row.len() == atoms.len() {
+        Ok(row.to_vec())
+    } else {
+        bail!(
+            "{}: {} values per frame, but {} has {} atoms, {} of them drawn: give one value per atom of the file or per atom drawn",
+            values.source,
+            row.len(),
+            m.source,
+            m.sites,
+            atoms.len()
+        )
+    }
 }
 
 /// One atom as drawn: its centre, its radius (Å, `radius_scale` applied)
@@ -413,7 +600,14 @@ mod tests {
         let atoms = elements
             .iter()
             .enumerate()
-            .map(|(i, e)| Atom { element: e.to_string(), position: DVec3::new(3.0 * i as f64, 0.0, 0.0), chain: "A".into(), line: i + 10, site: i })
+            .map(|(i, e)| Atom {
+                element: e.to_string(),
+                position: DVec3::new(3.0 * i as f64, 0.0, 0.0),
+                chain: "A".into(),
+                line: i + 10,
+                site: i,
+                ..Default::default()
+            })
             .collect();
         Molecule { source: "m.pdb".into(), atoms, skipped_sites: None, extra_models: 0, sites: elements.len() }
     }

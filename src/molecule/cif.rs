@@ -6,7 +6,9 @@
 //! space), text fields between lines that start with `;`, and `#`
 //! comments. Only the `_atom_site` loop is read: `type_symbol`,
 //! `Cartn_x/y/z`, `label_alt_id`, `auth_asym_id` (else `label_asym_id`)
-//! and `pdbx_PDB_model_num`.
+//! and `pdbx_PDB_model_num`, and what users select by: `group_PDB`, the
+//! atom and residue names and residue number (`auth_*`, else `label_*`),
+//! `label_asym_id`, `pdbx_PDB_ins_code`, `occupancy` and `B_iso_or_equiv`.
 
 use glam::DVec3;
 
@@ -182,6 +184,14 @@ fn read_rows(
     let alt_col = col("label_alt_id");
     let chain_col = col("auth_asym_id").or(col("label_asym_id"));
     let model_col = col("pdbx_pdb_model_num");
+    // What users select by: the author's names and numbers where given
+    // (they are what PDB files and papers use), else the label's.
+    let label_chain_col = col("label_asym_id");
+    let name_col = col("auth_atom_id").or(col("label_atom_id"));
+    let resname_col = col("auth_comp_id").or(col("label_comp_id"));
+    let resid_col = col("auth_seq_id").or(col("label_seq_id"));
+    let icode_col = col("pdbx_pdb_ins_code");
+    let (beta_col, occupancy_col, group_col) = (col("b_iso_or_equiv"), col("occupancy"), col("group_pdb"));
     // What names a site, of the columns the file has.
     let site_cols: Vec<usize> =
         ["label_atom_id", "auth_atom_id", "label_comp_id", "label_asym_id", "auth_asym_id", "label_seq_id", "auth_seq_id", "pdbx_pdb_ins_code"]
@@ -215,8 +225,25 @@ fn read_rows(
         let y = number(row[cy].s, "Cartn_y", file, row[cy].line)?;
         let z = number(row[cz].s, "Cartn_z", file, row[cz].line)?;
         let element = if missing(row[symbol].s) { String::new() } else { element_case(row[symbol].s) };
-        let chain = chain_col.map(|c| row[c].s).filter(|c| !missing(c)).unwrap_or("").to_string();
-        atoms.push(Atom { element, position: DVec3::new(x, y, z), chain, line, site });
+        let text = |c: Option<usize>| c.map(|c| row[c].s).filter(|v| !missing(v)).unwrap_or("").to_string();
+        let value = |c: Option<usize>, default: f64| c.and_then(|c| row[c].s.parse::<f64>().ok()).filter(|v| v.is_finite()).unwrap_or(default);
+        let chain = text(chain_col);
+        atoms.push(Atom {
+            element,
+            position: DVec3::new(x, y, z),
+            label_chain: if label_chain_col.is_some() { text(label_chain_col) } else { chain.clone() },
+            chain,
+            line,
+            site,
+            name: text(name_col),
+            resname: text(resname_col),
+            resid: resid_col.and_then(|c| row[c].s.parse::<i64>().ok()).unwrap_or(0),
+            icode: text(icode_col),
+            beta: value(beta_col, 0.0),
+            occupancy: value(occupancy_col, 1.0),
+            hetero: group_col.is_some_and(|c| row[c].s.eq_ignore_ascii_case("HETATM")),
+            ..Default::default()
+        });
     }
     Ok(models.len().saturating_sub(1))
 }
@@ -236,6 +263,8 @@ mod tests {
         assert_eq!(m.atoms[1].element, "Se");
         assert_eq!(m.atoms[1].chain, "B");
         assert_eq!(m.atoms[1].position, DVec3::new(-1.5, 0.0, 2.0));
+        assert!(m.atoms[1].hetero && !m.atoms[0].hetero);
+        assert_eq!((m.atoms[1].beta, m.atoms[1].occupancy), (0.0, 1.0), "columns the table lacks keep their defaults");
         assert_eq!(m.extra_models, 1);
     }
 

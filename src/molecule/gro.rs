@@ -11,8 +11,8 @@
 //!
 //! - the element comes from the atom name: names of dummy and virtual
 //!   sites (`MW`, `DM`, `LP`, `EP`, `VS` first) are no atoms and are
-//!   skipped; a single-atom residue named as its atom (`NA NA`, `ZN ZN`)
-//!   is that ion; a name starting with H, C, N, O, S or P is that element
+//!   skipped; a single-atom residue named as its atom (`NA NA`, `ZN ZN`,
+//!   `NA+ NA`) is that ion; a name starting with H, C, N, O, S or P is that element
 //!   (force fields name atoms by their element first: `CA` is an alpha
 //!   carbon); other names try their first two letters (`ZND` is zinc),
 //!   then their first;
@@ -34,6 +34,8 @@ pub fn element(name: &str, residue: &str) -> Option<String> {
     if NOT_ATOMS.iter().any(|p| upper.starts_with(p)) {
         return None;
     }
+    // The residue's name may carry the ion's charge (`NA+`, `CL-`).
+    let residue = residue.trim_end_matches(['+', '-']);
     if upper == residue.to_ascii_uppercase() && elements::is_element(&element_case(name)) {
         return Some(element_case(name));
     }
@@ -114,7 +116,18 @@ pub fn parse_at(text: &str, file: &str, before: usize) -> Result<Molecule, Molec
         };
         let c = |i: usize, what: &str| number(&line[20 + i * width..20 + (i + 1) * width], what, file, before + n);
         let p = DVec3::new(c(0, "x (nm)")?, c(1, "y (nm)")?, c(2, "z (nm)")?) * 10.0;
-        atoms.push(Atom { element, position: p, chain: chain.to_string(), line: before + n, site: k });
+        atoms.push(Atom {
+            element,
+            position: p,
+            chain: chain.to_string(),
+            label_chain: chain.to_string(),
+            line: before + n,
+            site: k,
+            name: line[10..15].trim().to_string(),
+            resname: line[5..10].trim().to_string(),
+            resid: residue_number.unwrap_or(0),
+            ..Default::default()
+        });
     }
     if lines.len() < count + 3 {
         return Err(err(lines.len(), "the file is cut short: the box line after the atoms is missing".into()));
@@ -146,6 +159,8 @@ mod tests {
         assert_eq!(element("MW", "SOL"), None);
         assert_eq!(element("NA", "NA").as_deref(), Some("Na"));
         assert_eq!(element("CL", "CL").as_deref(), Some("Cl"));
+        assert_eq!(element("NA", "NA+").as_deref(), Some("Na"), "GROMACS names ions with their charge");
+        assert_eq!(element("CL", "CL-").as_deref(), Some("Cl"));
         assert_eq!(element("P", "POPE").as_deref(), Some("P"));
     }
 
@@ -158,6 +173,7 @@ mod tests {
         assert_eq!(m.atoms.len(), 3);
         assert!((m.atoms[0].position - DVec3::new(21.27, 11.35, 62.89)).length() < 1e-9);
         assert_eq!(m.atoms.iter().map(|a| a.chain.as_str()).collect::<Vec<_>>(), ["1", "1", "2"]);
+        assert_eq!((m.atoms[1].name.as_str(), m.atoms[1].resname.as_str(), m.atoms[1].resid), ("CA", "ALA", 8));
         let e = parse("title\n3\n    7TYR      N    1   2.127   1.135   6.289\n", "t.gro").unwrap_err();
         assert_eq!(e.to_string(), "t.gro:3: the file is cut short: its atom count (line 2) says 3 atoms, it holds 1");
     }

@@ -16,11 +16,13 @@
 
 pub mod build;
 pub mod cif;
+pub mod color;
 pub mod elements;
 pub mod gro;
 pub mod pdb;
 pub mod playback;
 pub mod psf;
+pub mod select;
 pub mod trajectory;
 
 use std::io::Read as _;
@@ -32,11 +34,17 @@ pub use build::{Coloring, MoleculeChoices, MoleculeOptions};
 
 /// One atom as read: its element symbol as written in the periodic table
 /// (`C`, `Se`, `Zn`; an unrecognised symbol as found, upper case), its
-/// position in ångström, and its chain (empty when the file has none).
+/// position in ångström, its chain (empty when the file has none), and
+/// what users select it by (`select.rs`). A field the format lacks keeps
+/// its default: empty text, residue 0, B-factor 0, occupancy 1, charge
+/// and mass 0.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Atom {
     pub element: String,
     pub position: DVec3,
+    /// The author's chain: PDB column 22, mmCIF `auth_asym_id` (else
+    /// `label_asym_id`), PSF's segment, GRO's count of chains (`1`, `2`..:
+    /// a chain ends where residue numbers start again lower).
     pub chain: String,
     /// The line it was read from (1-based, of the decompressed text).
     pub line: usize,
@@ -44,6 +52,53 @@ pub struct Atom {
     /// sites skipped or left out too): the index of its position in each
     /// frame of a trajectory written for this topology.
     pub site: usize,
+    /// The atom's name (`CA`, `OW`), trimmed.
+    pub name: String,
+    /// The residue's name (`LYS`, `HOH`, `SOL`), trimmed.
+    pub resname: String,
+    /// The residue's number (the author's: PDB columns 23-26, mmCIF
+    /// `auth_seq_id`, else `label_seq_id`).
+    pub resid: i64,
+    /// The residue's insertion code (PDB column 27, mmCIF
+    /// `pdbx_PDB_ins_code`), empty when none.
+    pub icode: String,
+    /// mmCIF's `label_asym_id`; elsewhere the chain.
+    pub label_chain: String,
+    /// The segment: PDB columns 73-76, PSF's segment; empty elsewhere.
+    pub segment: String,
+    /// The B-factor (temperature factor; AlphaFold's pLDDT), Å².
+    pub beta: f64,
+    pub occupancy: f64,
+    /// A HETATM record (mmCIF `group_PDB`).
+    pub hetero: bool,
+    /// PSF's atom type, partial charge (e) and mass (u).
+    pub atom_type: String,
+    pub charge: f64,
+    pub mass: f64,
+}
+
+impl Default for Atom {
+    fn default() -> Self {
+        Atom {
+            element: String::new(),
+            position: DVec3::ZERO,
+            chain: String::new(),
+            line: 0,
+            site: 0,
+            name: String::new(),
+            resname: String::new(),
+            resid: 0,
+            icode: String::new(),
+            label_chain: String::new(),
+            segment: String::new(),
+            beta: 0.0,
+            occupancy: 1.0,
+            hetero: false,
+            atom_type: String::new(),
+            charge: 0.0,
+            mass: 0.0,
+        }
+    }
 }
 
 /// The atoms of a file, and what was left out and why.

@@ -44,6 +44,31 @@ fn element(line: &str) -> String {
     element_case(&chars.get(1).map_or(String::new(), |c| c.to_string()))
 }
 
+/// A residue number (columns 23-26): decimal, or hybrid-36 beyond 9999
+/// (`A000` is 10000, as VMD, MDAnalysis and gemmi read it); 0 when blank
+/// or unreadable, which is no reason to refuse the atom.
+fn residue_number(field: &str) -> i64 {
+    let t = field.trim();
+    if let Ok(n) = t.parse::<i64>() {
+        return n;
+    }
+    // Hybrid-36 for 4 characters: A000..ZZZZ then a000..zzzz.
+    let digit = |c: char| c.to_digit(36).map(i64::from);
+    let (Some(first), true) = (t.chars().next(), t.len() == 4) else { return 0 };
+    let rest: Option<i64> = t.chars().skip(1).try_fold(0i64, |acc, c| Some(acc * 36 + digit(c)?));
+    match (first, digit(first), rest) {
+        ('A'..='Z', Some(d), Some(r)) => 10_000 + (d - 10) * 36i64.pow(3) + r,
+        ('a'..='z', Some(d), Some(r)) => 10_000 + 26 * 36i64.pow(3) + (d - 10) * 36i64.pow(3) + r,
+        _ => 0,
+    }
+}
+
+/// An optional number column (occupancy, B-factor): `default` when blank
+/// or unreadable (many files leave them out).
+fn optional_number(field: &str, default: f64) -> f64 {
+    field.trim().parse::<f64>().ok().filter(|v| v.is_finite()).unwrap_or(default)
+}
+
 pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
     parse_at(text, file, 0)
 }
@@ -96,12 +121,24 @@ pub fn parse_at(text: &str, file: &str, skipped: usize) -> Result<Molecule, Mole
         let x = number(&line[30..38], "x coordinate (columns 31-38)", file, n)?;
         let y = number(&line[38..46], "y coordinate (columns 39-46)", file, n)?;
         let z = number(&line[46..54], "z coordinate (columns 47-54)", file, n)?;
+        let text = |a, b| cols(line, a, b).unwrap_or("").trim().to_string();
+        let chain = text(22, 22);
         atoms.push(Atom {
             element: element(line),
             position: DVec3::new(x, y, z),
-            chain: cols(line, 22, 22).unwrap_or("").trim().to_string(),
+            label_chain: chain.clone(),
+            chain,
             line: n,
             site,
+            name: text(13, 16),
+            resname: text(18, 20),
+            resid: residue_number(cols(line, 23, 26).unwrap_or("")),
+            icode: text(27, 27),
+            segment: text(73, 76),
+            beta: optional_number(cols(line, 61, 66).unwrap_or(""), 0.0),
+            occupancy: optional_number(cols(line, 55, 60).unwrap_or(""), 1.0),
+            hetero: line.starts_with("HETATM"),
+            ..Default::default()
         });
     }
     Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models: models.saturating_sub(1), sites })
@@ -120,6 +157,21 @@ mod tests {
         assert_eq!(m.atoms[0].element, "C");
         assert_eq!(m.atoms[0].chain, "A");
         assert_eq!(m.atoms[0].position, DVec3::new(22.117, 52.841, 18.584));
+        let a = &m.atoms[0];
+        assert_eq!((a.name.as_str(), a.resname.as_str(), a.resid, a.icode.as_str()), ("CG", "LYS", 158, ""));
+        assert_eq!((a.occupancy, a.beta, a.hetero), (1.0, 26.02, false));
+    }
+
+    #[test]
+    fn residue_numbers_beyond_9999_are_hybrid_36() {
+        assert_eq!(residue_number(" 158"), 158);
+        assert_eq!(residue_number("-12"), -12);
+        assert_eq!(residue_number("A000"), 10_000);
+        assert_eq!(residue_number("A001"), 10_001);
+        assert_eq!(residue_number("ZZZZ"), 10_000 + 26 * 36 * 36 * 36 - 1);
+        assert_eq!(residue_number("a000"), 10_000 + 26 * 36 * 36 * 36);
+        assert_eq!(residue_number("    "), 0);
+        assert_eq!(residue_number("#!"), 0);
     }
 
     #[test]

@@ -21,7 +21,7 @@ use anyhow::{Result, bail};
 use glam::DVec3;
 
 use super::MoleculeOptions;
-use super::build::{Framing, Notes, balls_of, staged_text};
+use super::build::{Framing, Notes, Stage, balls_of, staged_text};
 use super::trajectory::Trajectory;
 use crate::scene::Scene;
 
@@ -44,6 +44,10 @@ pub struct Stager {
     pub trajectory: Trajectory,
     pub options: MoleculeOptions,
     pub framing: Framing,
+    /// Per atom of the topology, whether the selection picks it: chosen
+    /// once, on the first frame, so every frame draws the same atoms
+    /// (a selection by distance would otherwise change with them).
+    chosen: Vec<bool>,
     adjust: Option<Adjust>,
     /// Frame 0's scene as parsed, and the site of each of its primitives:
     /// later frames move the primitives of a copy (see [`Stager::scene`]).
@@ -60,14 +64,8 @@ impl Stager {
     /// A stager with the camera framed by `rule`.
     pub fn new(trajectory: Trajectory, options: MoleculeOptions, rule: FramingRule) -> Result<Stager> {
         options.check()?;
-        let first = balls_of(&trajectory.topology, &options);
-        if first.is_empty() {
-            bail!(
-                "{}: all {} atoms are hydrogens, which are left out unless --hydrogens is given",
-                trajectory.topology.source,
-                trajectory.topology.atoms.len()
-            );
-        }
+        let chosen = options.selection().matches(&trajectory.topology.atoms);
+        let first = balls_of(&trajectory.topology, &options, Some(&chosen))?;
         let mut framing = Framing::of(&first);
         let mut t = trajectory;
         if rule == FramingRule::All {
@@ -75,7 +73,7 @@ impl Stager {
             for k in 0..t.len() {
                 let frame = t.frames.read(k)?;
                 let m = t.molecule_at(&frame)?;
-                for b in balls_of(&m, &options) {
+                for b in balls_of(&m, &options, Some(&chosen))? {
                     lo = lo.min(b.center);
                     hi = hi.max(b.center);
                     widest = widest.max(b.radius);
@@ -84,7 +82,7 @@ impl Stager {
             // The box's half diagonal holds every centre of every frame.
             framing = Framing { center: 0.5 * (lo + hi), reach: 0.5 * (hi - lo).length() + widest };
         }
-        Ok(Stager { trajectory: t, options, framing, adjust: None, template: None })
+        Ok(Stager { trajectory: t, options, framing, chosen, adjust: None, template: None })
     }
 
     /// Applies `adjust` to every scene built from now on.
@@ -117,7 +115,8 @@ impl Stager {
         let m = self.trajectory.molecule_at(&frame)?;
         let time = frame.time_ps.map_or(String::new(), |t| format!(", t = {} ps", super::trajectory::ps(t)));
         let note = format!("Frame {k} of {} ({} frames{time}), camera on {}.", self.trajectory.source, self.len(), describe(&self.framing));
-        let (text, notes) = staged_text(&m, &self.options, Some(self.framing), &note)?;
+        let stage = Stage { framing: Some(self.framing), note: &note, frame: k, chosen: Some(&self.chosen) };
+        let (text, notes) = staged_text(&m, &self.options, stage)?;
         Ok((text, frame.time_ps, notes))
     }
 
@@ -145,8 +144,11 @@ impl Stager {
             }
             None => {
                 let (scene, time) = self.parsed(k)?;
-                let sites = super::build::kept_sites(&self.trajectory.topology, &self.options);
-                if scene.groups.len() == 1 && scene.groups[0].len() == sites.len() {
+                let sites = super::build::kept_sites(&self.trajectory.topology, &self.options, Some(&self.chosen))?;
+                // Values per frame change the colours too: each frame is
+                // then built from its text.
+                let moving_colors = self.options.values.as_ref().is_some_and(|v| v.frames() > 1);
+                if scene.groups.len() == 1 && scene.groups[0].len() == sites.len() && !moving_colors {
                     self.template = Some((scene.clone(), sites));
                 }
                 (scene, time)
@@ -327,7 +329,7 @@ mod tests {
     }
 
     fn trajectory() -> Trajectory {
-        let atom = |element: &str, site: usize| Atom { element: element.into(), position: DVec3::ZERO, chain: "A".into(), line: site + 1, site };
+        let atom = |element: &str, site: usize| Atom { element: element.into(), chain: "A".into(), line: site + 1, site, ..Default::default() };
         let mut topology = Molecule {
             source: "t.gro".into(),
             atoms: vec![atom("C", 0), atom("H", 1), atom("O", 2)],
@@ -347,7 +349,7 @@ mod tests {
         for hydrogens in [false, true] {
             let options = MoleculeOptions { hydrogens, turntable: Some(8.0), ..Default::default() };
             for rule in [FramingRule::First, FramingRule::All] {
-                let mut stager = Stager::new(trajectory(), options, rule).unwrap();
+                let mut stager = Stager::new(trajectory(), options.clone(), rule).unwrap();
                 let (first, _) = stager.scene(0).unwrap();
                 assert!(stager.template.is_some(), "the first scene is kept");
                 assert_eq!(first, stager.parsed(0).unwrap().0);

@@ -30,6 +30,13 @@ pub fn element(mass: f64, name: &str, residue: &str) -> Option<String> {
     gro::element(name, residue)
 }
 
+/// A PSF residue number: digits, optionally followed by an insertion code
+/// (`52A`); 0 when it has no digits.
+fn residue_number(field: &str) -> i64 {
+    let end = field.char_indices().find(|&(i, c)| !(c.is_ascii_digit() || (i == 0 && c == '-'))).map_or(field.len(), |(i, _)| i);
+    field[..end].parse().unwrap_or(0)
+}
+
 pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
     let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(line), message };
     let lines: Vec<&str> = text.lines().collect();
@@ -67,7 +74,23 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
             skipped += 1;
             continue;
         };
-        atoms.push(Atom { element, position: DVec3::ZERO, chain: f[1].to_string(), line: n, site: k });
+        atoms.push(Atom {
+            element,
+            position: DVec3::ZERO,
+            chain: f[1].to_string(),
+            label_chain: f[1].to_string(),
+            segment: f[1].to_string(),
+            line: n,
+            site: k,
+            resid: residue_number(f[2]),
+            icode: f[2].trim_start_matches(|c: char| c == '-' || c.is_ascii_digit()).to_string(),
+            resname: f[3].to_string(),
+            name: f[4].to_string(),
+            atom_type: f[5].to_string(),
+            charge: f[6].parse().ok().filter(|c: &f64| c.is_finite()).unwrap_or(0.0),
+            mass,
+            ..Default::default()
+        });
     }
     Ok(Molecule { source: file.into(), atoms, skipped_sites: (skipped > 0).then_some((skipped, first_skipped)), extra_models: 0, sites: count })
 }
@@ -94,6 +117,9 @@ mod tests {
                  \x20      3 SOLV     2        TIP4     OM       OM    -1.040000        0.0000           0\n\n";
         let m = parse(t, "t.psf").unwrap();
         assert_eq!(m.sites, 3);
+        let n = &m.atoms[0];
+        assert_eq!((n.name.as_str(), n.resname.as_str(), n.resid, n.atom_type.as_str(), n.charge, n.mass), ("N", "MET", 1, "NH3", -0.3, 14.007));
+        assert_eq!((residue_number("52A"), residue_number("-3"), residue_number("X")), (52, -3, 0));
         assert_eq!(m.atoms.iter().map(|a| (a.element.as_str(), a.chain.as_str(), a.site)).collect::<Vec<_>>(), [("N", "4AKE", 0), ("H", "4AKE", 1)]);
         assert_eq!(m.skipped_sites, Some((1, 9)));
         let e = parse(&t[..t.len() - 60], "t.psf").unwrap_err();

@@ -1,0 +1,216 @@
+//! Selections (`--select`, src/molecule/select.rs) against an independent
+//! implementation: for each expression of tests/data/selections/
+//! reference.csv, the atoms isomarch selects are, by index, the atoms
+//! MDAnalysis's `select_atoms` selected with the same expression in its
+//! grammar (written by scripts/selection-reference.py; the README beside
+//! the data lists where the grammars differ).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use isomarch::molecule::select::Selection;
+use isomarch::molecule::{self, Atom, trajectory};
+
+use crate::common::*;
+
+/// The atoms of a reference file as isomarch reads them: a PSF topology
+/// with the first frame of its DCD (positions for `within`).
+fn atoms_of(file: &str) -> Vec<Atom> {
+    let path = repo_root().join(file);
+    if file.ends_with(".psf") {
+        let dcd = path.with_file_name("adk_dims.dcd");
+        return trajectory::open(&path, Some(&dcd)).unwrap_or_else(|e| panic!("{e}")).topology.atoms;
+    }
+    molecule::read(&path).unwrap_or_else(|e| panic!("{e}")).atoms
+}
+
+/// `0-5 9 12-40` as indices.
+fn expand(ranges: &str) -> Vec<usize> {
+    ranges
+        .split_whitespace()
+        .flat_map(|r| {
+            let (a, b) = r.split_once('-').unwrap_or((r, r));
+            let (a, b): (usize, usize) = (a.parse().unwrap(), b.parse().unwrap());
+            a..=b
+        })
+        .collect()
+}
+
+#[test]
+fn selections_select_what_mdanalysis_selects() {
+    let path = repo_root().join("tests/data/selections/reference.csv");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e} (scripts/selection-reference.py writes it)", path.display()));
+    let body: String = text.lines().filter(|l| !l.starts_with('#')).map(|l| format!("{l}\n")).collect();
+    let mut reader = csv::Reader::from_reader(body.as_bytes());
+    let mut files: BTreeMap<String, Vec<Atom>> = BTreeMap::new();
+    let (mut rows, mut failures) = (0, Vec::new());
+    for record in reader.records() {
+        let record = record.unwrap();
+        let (file, ours, theirs, count, indices) = (&record[0], &record[1], &record[2], &record[3], &record[4]);
+        let atoms = files.entry(file.to_string()).or_insert_with(|| atoms_of(file));
+        let selection = Selection::parse(ours).unwrap_or_else(|e| panic!("{file}: {ours:?}: {e}"));
+        let chosen: Vec<usize> = atoms.iter().zip(selection.matches(atoms)).filter(|(_, m)| *m).map(|(a, _)| a.site).collect();
+        let expected = expand(indices);
+        assert_eq!(expected.len(), count.parse::<usize>().unwrap(), "{file}: {theirs:?}: the row's count and its indices disagree");
+        rows += 1;
+        if chosen != expected {
+            let extra: Vec<&usize> = chosen.iter().filter(|i| !expected.contains(i)).take(5).collect();
+            let missing: Vec<&usize> = expected.iter().filter(|i| !chosen.contains(i)).take(5).collect();
+            failures.push(format!(
+                "{}: {ours:?} selects {} atoms, MDAnalysis's {theirs:?} {}; first extra {extra:?}, first missing {missing:?}",
+                Path::new(file).file_name().unwrap().to_string_lossy(),
+                chosen.len(),
+                expected.len()
+            ));
+        }
+    }
+    assert!(rows >= 25, "the Done-when asks for at least 25 expressions; the reference holds {rows}");
+    assert!(files.len() == 5, "the reference covers 1A8O, 6WG6, the AdK PSF and GRO and YiiP: {:?}", files.keys());
+    assert!(failures.is_empty(), "{} of {rows} selections differ from MDAnalysis:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// A PDB ATOM record of atom `serial` (its element, residue and B-factor).
+fn record(serial: usize, element: &str, resname: &str, resid: i64, chain: &str, x: f64, beta: f64) -> String {
+    format!(
+        "HETATM{serial:>5} {:<4} {resname:>3} {chain}{resid:>4}    {x:>8.3}{:>8.3}{:>8.3}  1.00{beta:>6.2}          {element:>2}\n",
+        format!(" {element}"),
+        0.0,
+        0.0
+    )
+}
+
+/// The colour (linear RGB) of each atom of the scene that `isomarch scene
+/// FILE FLAGS` writes, in the file's order.
+fn scene_colors(file: &Path, flags: &[&str]) -> Vec<[f64; 3]> {
+    let ron = file.with_extension(format!("{}.ron", flags.len()));
+    isomarch(["scene", file.to_str().unwrap(), "-o", ron.to_str().unwrap()]).args(flags).ok();
+    let scene = isomarch::scene::Scene::load(&ron).unwrap();
+    scene.colors.expect("a coloured scene").iter().map(|c| c.to_array()).collect()
+}
+
+/// An sRGB colour in the linear RGB the scene file holds (six decimals).
+fn linear(c: [u8; 3]) -> [f64; 3] {
+    c.map(|v| format!("{:.6}", isomarch::molecule::elements::linear(v)).parse().unwrap())
+}
+
+/// Colour by B-factor in closed form: three atoms 100 Å apart with B at
+/// the range's ends and its middle take the palette's published end and
+/// middle colours (viridis #440154, #20908C, #FDE725; blue-white-red's
+/// ends and white); outside a given range they clamp to its ends;
+/// AlphaFold's bands go by the value itself.
+#[test]
+fn a_bfactor_colouring_has_the_palettes_ends_and_middle() {
+    let dir = scratch("sel-bfactor");
+    let pdb = dir.join("three.pdb");
+    let text: String =
+        [(10.0, 0.0), (30.0, 100.0), (50.0, 200.0)].iter().enumerate().map(|(i, &(b, x))| record(i + 1, "C", "LIG", 1, "A", x, b)).collect();
+    std::fs::write(&pdb, text).unwrap();
+    // colorous's viridis (a fitted curve) has #20908C in the middle where
+    // matplotlib's 256-entry table has #21918C: one level apart.
+    let viridis = [[0x44, 0x01, 0x54], [0x20, 0x90, 0x8C], [0xFD, 0xE7, 0x25]];
+    assert_eq!(scene_colors(&pdb, &["--color", "bfactor"]), viridis.map(linear), "viridis over the values' own range 10:50");
+    let bwr = [[0x21, 0x66, 0xAC], [0xFF, 0xFF, 0xFF], [0xB2, 0x18, 0x2B]];
+    assert_eq!(scene_colors(&pdb, &["--color", "bfactor", "--palette", "blue-white-red"]), bwr.map(linear));
+    // A range of 20:40: B 10 clamps to the low end, 30 is the middle, 50 the high end.
+    assert_eq!(scene_colors(&pdb, &["--color", "bfactor", "--range", "20:40"]), viridis.map(linear));
+    // A range of 30:70: B 30 is the low end, 50 the middle.
+    let shifted = scene_colors(&pdb, &["--color", "bfactor", "--range", "30:70"]);
+    assert_eq!((shifted[0], shifted[1], shifted[2]), (linear(viridis[0]), linear(viridis[0]), linear(viridis[1])));
+    // AlphaFold's bands: 10 very low (orange), 30 very low, 50 low (yellow).
+    let af = scene_colors(&pdb, &["--color", "bfactor", "--palette", "alphafold"]);
+    assert_eq!(af, [[0xFF, 0x7D, 0x45], [0xFF, 0x7D, 0x45], [0xFF, 0xDB, 0x13]].map(linear));
+    // Occupancy the same way (all 1.00: the middle of a one-value range).
+    assert_eq!(scene_colors(&pdb, &["--color", "occupancy"]), [viridis[1]; 3].map(linear));
+}
+
+/// Values from a file colour as the B-factors do: one per atom, as a
+/// line or a column; a row per frame of a trajectory.
+#[test]
+fn values_from_a_file_colour_atoms_by_site_or_by_atom_drawn() {
+    let dir = scratch("sel-values");
+    let pdb = dir.join("four.pdb");
+    // A water between the atoms: left out by default, so the file has 4
+    // atoms and 3 are drawn.
+    let text: String = [("C", "LIG", 0.0), ("O", "HOH", 50.0), ("C", "LIG", 100.0), ("C", "LIG", 200.0)]
+        .iter()
+        .enumerate()
+        .map(|(i, &(e, r, x))| record(i + 1, e, r, i as i64 + 1, "A", x, 0.0))
+        .collect();
+    std::fs::write(&pdb, text).unwrap();
+    let viridis = [[0x44, 0x01, 0x54], [0x20, 0x90, 0x8C], [0xFD, 0xE7, 0x25]].map(linear);
+    // By site (4 values; the water's 99 is not drawn but is in the range).
+    std::fs::write(dir.join("site.csv"), "0,99,49.5,99\n").unwrap();
+    let by_site = scene_colors(&pdb, &["--color-values", dir.join("site.csv").to_str().unwrap()]);
+    assert_eq!(by_site, [viridis[0], viridis[1], viridis[2]]);
+    // By atom drawn (3 values), as a column with a comment.
+    std::fs::write(dir.join("drawn.csv"), "# one per atom drawn\n5\n6\n7\n").unwrap();
+    assert_eq!(scene_colors(&pdb, &["--color-values", dir.join("drawn.csv").to_str().unwrap()]), viridis);
+}
+
+/// Twenty bad selections, ranges and values files: each refused in one
+/// line naming what is wrong, exit status 1, no image written.
+#[test]
+fn bad_selections_and_values_are_refused_in_one_line_and_write_nothing() {
+    let dir = scratch("sel-bad");
+    let pdb = repo_root().join("tests/data/molecules/1A8O.pdb");
+    let png = dir.join("out.png");
+    let file = |name: &str, text: &str| -> String {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (vec!["--select".into(), "chian A".into()], "unknown keyword 'chian' at column 1; did you mean 'chain'?"),
+        (vec!["--select".into(), "protein and chian A".into()], "at column 13; did you mean 'chain'?"),
+        (vec!["--select".into(), "resid".into()], "'resid' at column 1 needs at least one value"),
+        (vec!["--select".into(), "within of protein".into()], "expected a number after 'within' at column 8"),
+        (vec!["--select".into(), "within 5 protein".into()], "expected 'of'"),
+        (vec!["--select".into(), "(protein".into()], "unclosed '(' at column 1"),
+        (vec!["--select".into(), "protein)".into()], "unexpected ')' at column 8"),
+        (vec!["--select".into(), "resid 10 to".into()], "'to' at column 10"),
+        (vec!["--select".into(), "beta > abc".into()], "column 8"),
+        (vec!["--select".into(), "resid 50 to 10".into()], "column"),
+        (vec!["--select".into(), "".into()], "the selection is empty"),
+        (vec!["--select".into(), "protein foo".into()], "column 9"),
+        (vec!["--select".into(), "name 'CA".into()], "column 6"),
+        (vec!["--select".into(), "resname XYZ".into()], "the selection 'resname XYZ' picks none of its 644 atoms"),
+        (vec!["--select".into(), "hydrogen".into()], "picks none"),
+        (vec!["--color".into(), "bfactor".into(), "--range".into(), "50:10".into()], "--range MIN:MAX needs MIN below MAX"),
+        (vec!["--palette".into(), "viridis".into()], "--palette applies to colourings by value"),
+        (vec!["--color-values".into(), file("short.csv", "1,2,3\n")], "3 values per frame, but"),
+        (vec!["--color-values".into(), file("nan.csv", "1,x,3\n")], "nan.csv:1: value 2 (\"x\") is not a finite number"),
+        (vec!["--color-values".into(), file("ragged.csv", "1,2\n1,2,3\n")], "row 2 has 3 values where the first has 2"),
+        (vec!["--color-values".into(), file("empty.csv", "# nothing\n")], "no values"),
+        (vec!["--color-values".into(), dir.join("missing.csv").to_str().unwrap().into()], "cannot read the values"),
+        (
+            vec!["--color-values".into(), file("site.csv", &"1\n".repeat(644)), "--color".into(), "chain".into()],
+            "--color chain cannot be given with it",
+        ),
+    ];
+    for (flags, expected) in &cases {
+        let line = isomarch(["render", pdb.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "16x16"]).args(flags).fails_in_one_line();
+        assert!(line.contains(expected), "{flags:?}: {line:?} lacks {expected:?}");
+        assert!(!png.exists(), "{flags:?} wrote an image");
+    }
+}
+
+/// 1A8O without its 88 crystal waters by default, saying so; `--select
+/// all` draws every atom, as the same file with its waters renamed (no
+/// longer water) does by default, pixel for pixel.
+#[test]
+fn waters_are_left_out_by_default_with_a_note_and_select_all_keeps_them() {
+    let dir = scratch("sel-default");
+    let pdb = repo_root().join("tests/data/molecules/1A8O.pdb");
+    let out = isomarch(["render", pdb.to_str().unwrap(), "-o", dir.join("default.png").to_str().unwrap(), "--size", "48x48"]).ok();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("556 atoms (88 water and ion atoms left out: --select all keeps them)"), "{stderr}");
+    let out = isomarch(["render", pdb.to_str().unwrap(), "-o", dir.join("all.png").to_str().unwrap(), "--size", "48x48", "--select", "all"]).ok();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains(": 644 atoms, 1 chain"), "{stderr}");
+    let renamed = dir.join("renamed.pdb");
+    std::fs::write(&renamed, std::fs::read_to_string(&pdb).unwrap().replace(" HOH ", " WWW ")).unwrap();
+    isomarch(["render", renamed.to_str().unwrap(), "-o", dir.join("renamed.png").to_str().unwrap(), "--size", "48x48"]).ok();
+    let read = |name: &str| image::open(dir.join(name)).unwrap().to_rgb8().into_raw();
+    assert_eq!(read("all.png"), read("renamed.png"), "--select all is not the file drawn whole");
+    assert_ne!(read("all.png"), read("default.png"), "the waters made no difference");
+}
