@@ -107,6 +107,26 @@ PAIRS = [
     # VMD: `and` binds tighter than `or`; MDAnalysis gives both one
     # precedence (left to right), so its side needs the parentheses.
     (PDB, "resname ALA or resname GLY and name CA", "resname ALA or (resname GLY and name CA)", []),
+    # Where the grammars differ, each difference on its own (README.md):
+    # MDAnalysis's left-to-right reading of the same text is isomarch's
+    # bracketed one; its `around` leaves out SEL, which isomarch's `around`
+    # alias does too and `within` does not; `within` takes everything to
+    # its right; `byres` is an alias of `same residue as`.
+    (PDB, "(resname ALA or resname GLY) and name CA", "resname ALA or resname GLY and name CA", []),
+    (
+        PDB,
+        "(within 5 of (resname MSE and name SE)) and not (resname MSE and name SE)",
+        "around 5 (resname MSE and name SE)",
+        [("within", 5.0, "resname MSE and name SE")],
+    ),
+    (PDB, "around 5 (resname MSE and name SE)", "around 5 (resname MSE and name SE)", [("within", 5.0, "resname MSE and name SE")]),
+    (
+        PDB,
+        "within 3 of name SE and resname MSE",
+        "(around 3 (name SE and resname MSE)) or (name SE and resname MSE)",
+        [("within", 3.0, "name SE and resname MSE")],
+    ),
+    (PDB, "byres name SE", "byres name SE", []),
     (
         PDB,
         "within 5 of (resname MSE and name SE)",
