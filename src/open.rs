@@ -10,6 +10,7 @@ use std::time::Instant;
 
 use anyhow::{Result, bail};
 
+use crate::molecule::color::Legend;
 use crate::molecule::playback::{FramingRule, Stager};
 use crate::molecule::{self, Molecule, MoleculeOptions};
 use crate::scene::Scene;
@@ -49,7 +50,8 @@ pub enum Opened {
 /// What a command renders: one scene, or the frames of a trajectory.
 #[allow(clippy::large_enum_variant)] // one per command
 pub enum Input {
-    Still(Scene),
+    /// A scene, and the colour key of a molecule coloured by value.
+    Still(Scene, Option<Legend>),
     Frames(Stager),
 }
 
@@ -102,14 +104,14 @@ impl Source<'_> {
         Ok(match self.read(Arc::clone(&adjust))? {
             Opened::Frames(stager) => Input::Frames(stager),
             Opened::Molecule(m, started) => {
-                let mut scene = self.scene_of(&m, started)?;
+                let (mut scene, legend) = self.scene_of(&m, started)?;
                 adjust(&mut scene)?;
-                Input::Still(scene)
+                Input::Still(scene, legend)
             }
             Opened::SceneFile => {
                 let mut scene = self.scene_file()?;
                 adjust(&mut scene)?;
-                Input::Still(scene)
+                Input::Still(scene, None)
             }
         })
     }
@@ -126,15 +128,15 @@ impl Source<'_> {
         Ok(Scene::load(self.path)?)
     }
 
-    /// The scene of molecule `m` (read from `started` on), its notes and
-    /// warnings printed to stderr.
-    fn scene_of(&self, m: &Molecule, started: Instant) -> Result<Scene> {
+    /// The scene of molecule `m` (read from `started` on) and its colour
+    /// key, its notes and warnings printed to stderr.
+    fn scene_of(&self, m: &Molecule, started: Instant) -> Result<(Scene, Option<Legend>)> {
         let (scene, notes) = molecule::build::scene_of(m, &self.molecule)?;
         for w in &notes.warnings {
             eprintln!("warning: {w}");
         }
         eprintln!("{} (read and built in {:.2} s)", notes.summary, started.elapsed().as_secs_f64());
-        Ok(scene)
+        Ok((scene, notes.legend))
     }
 }
 
@@ -142,8 +144,17 @@ impl Input {
     /// The scene of frame `frame` (0 where not given).
     pub fn scene(&mut self, frame: Option<usize>) -> Result<Scene> {
         match self {
-            Input::Still(scene) => Ok(scene.clone()),
+            Input::Still(scene, _) => Ok(scene.clone()),
             Input::Frames(stager) => Ok(stager.scene(frame.unwrap_or(0))?.0),
+        }
+    }
+
+    /// The colour key of a molecule coloured by value (a trajectory's:
+    /// its first frame's, whose range is every frame's).
+    pub fn legend(&mut self) -> Result<Option<Legend>> {
+        match self {
+            Input::Still(_, legend) => Ok(legend.clone()),
+            Input::Frames(stager) => Ok(stager.text(0)?.2.legend),
         }
     }
 }

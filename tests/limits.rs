@@ -43,8 +43,8 @@ fn marches_of_more_than_one_tile_complete_ray_for_ray() {
     assert_no_validation(&ctx);
 }
 
-/// `n` compact blobs in 17 groups (more than the index takes, so the scene
-/// marches flat), four lights.
+/// `n` compact blobs in `MAX_INDEX_GROUPS + 1` groups (more than the index
+/// takes, so the scene marches flat), four lights.
 fn flat_scene(n: usize) -> Scene {
     let side = 2.0 * (n as f64).cbrt();
     let mut state = 99u64;
@@ -52,9 +52,10 @@ fn flat_scene(n: usize) -> Scene {
         state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         (state >> 11) as f64 / (1u64 << 53) as f64
     };
-    let mut groups = vec![Vec::new(); 17];
+    let count = isomarch::render::index::MAX_INDEX_GROUPS + 1;
+    let mut groups = vec![Vec::new(); count];
     for i in 0..n {
-        groups[i % 17].push(compact(DVec3::new(next(), next(), next()) * side, 1.0 + 0.5 * next()));
+        groups[i % count].push(compact(DVec3::new(next(), next(), next()) * side, 1.0 + 0.5 * next()));
     }
     let mut s = scene(groups, 0.5, Method::LinearBisection, 1.0);
     s.marching.min_step = 1e-4 * s.min_radius();

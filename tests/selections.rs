@@ -121,6 +121,19 @@ fn a_bfactor_colouring_has_the_palettes_ends_and_middle() {
     assert_eq!(af, [[0xFF, 0x7D, 0x45], [0xFF, 0x7D, 0x45], [0xFF, 0xDB, 0x13]].map(linear));
     // Occupancy the same way (all 1.00: the middle of a one-value range).
     assert_eq!(scene_colors(&pdb, &["--color", "occupancy"]), [viridis[1]; 3].map(linear));
+    // --legend: 26 rows under the image, the bar from the low end's colour
+    // (2 pixels in) to the high end's (2 pixels from the right), white in
+    // the middle.
+    let png = dir.join("legend.png");
+    isomarch(["render", pdb.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "64x48"])
+        .args(["--color", "bfactor", "--palette", "blue-white-red", "--legend"])
+        .ok();
+    let img = image::open(&png).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (64, 48 + 26));
+    let bar = |x: u32| img.get_pixel(x, 48 + 6).0;
+    assert_eq!((bar(2), bar(61)), ([0x21, 0x66, 0xAC], [0xB2, 0x18, 0x2B]), "the bar's ends");
+    let middle = bar(32);
+    assert!(middle.iter().all(|&c| c >= 0xF4), "white in the middle: {middle:?}");
 }
 
 /// Values from a file colour as the B-factors do: one per atom, as a
@@ -213,4 +226,37 @@ fn waters_are_left_out_by_default_with_a_note_and_select_all_keeps_them() {
     let read = |name: &str| image::open(dir.join(name)).unwrap().to_rgb8().into_raw();
     assert_eq!(read("all.png"), read("renamed.png"), "--select all is not the file drawn whole");
     assert_ne!(read("all.png"), read("default.png"), "the waters made no difference");
+}
+
+/// `--surfaces per-chain`: two carbons of two chains 3.6 Å apart (their
+/// radii 1.7 Å), so that their Gaussians summed hold the point between
+/// them inside (2 e^{2(1 - (1.8/1.7)²)} = 1.57 > iso 1) while either alone
+/// does not (0.785). One group per chain; along the segment between the
+/// centres the field of the max of the chains crosses the iso value twice
+/// (out of one atom, into the other), the single sum never. `--apart`
+/// makes the same seam for a selection within one chain.
+#[test]
+fn a_surface_per_chain_meets_its_neighbour_with_a_seam() {
+    use glam::DVec3;
+    let dir = scratch("sel-chains");
+    let two =
+        |chain_b: &str, resname_b: &str| -> String { record(1, "C", "LIG", 1, "A", 0.0, 0.0) + &record(2, "C", resname_b, 2, chain_b, 3.6, 0.0) };
+    let crossings = |file: &Path, flags: &[&str], name: &str| -> (usize, usize) {
+        let ron = dir.join(format!("{name}.ron"));
+        isomarch(["scene", file.to_str().unwrap(), "-o", ron.to_str().unwrap()]).args(flags).ok();
+        let scene = isomarch::scene::Scene::load(&ron).unwrap();
+        let field = isomarch::field::Field::new(&scene);
+        let inside: Vec<bool> = (0..=1000).map(|k| field.value(DVec3::new(3.6 * f64::from(k) / 1000.0, 0.0, 0.0)) > 0.0).collect();
+        (scene.groups.len(), inside.windows(2).filter(|w| w[0] != w[1]).count())
+    };
+    let chains = dir.join("chains.pdb");
+    std::fs::write(&chains, two("B", "LIG")).unwrap();
+    assert_eq!(crossings(&chains, &[], "one"), (1, 0), "one sum: inside all the way");
+    assert_eq!(crossings(&chains, &["--surfaces", "per-chain"], "per-chain"), (2, 2), "a group per chain: out of one, into the other");
+    let ligand = dir.join("ligand.pdb");
+    std::fs::write(&ligand, two("A", "HEM")).unwrap();
+    assert_eq!(crossings(&ligand, &["--surfaces", "per-chain"], "one-chain"), (1, 0), "one chain: one surface");
+    assert_eq!(crossings(&ligand, &["--apart", "resname HEM"], "apart"), (2, 2), "the ligand apart");
+    let line = isomarch(["scene", ligand.to_str().unwrap(), "-o", dir.join("x.ron").to_str().unwrap(), "--apart", "resname XYZ"]).fails_in_one_line();
+    assert!(line.contains("--apart 'resname XYZ' picks none of the atoms drawn"), "{line}");
 }

@@ -25,6 +25,8 @@ class MoleculeOptions:
         self,
         *,
         select: Optional[str] = None,
+        surfaces: Optional[str] = None,
+        apart: Optional[list] = None,
         hydrogens: Optional[bool] = None,
         sharpness: Optional[float] = None,
         radius_scale: Optional[float] = None,

@@ -11,6 +11,7 @@ use glam::DVec3;
 use isomarch::Method;
 use isomarch::gpu::{Context, ContextOptions};
 use isomarch::layout::FLAG_HIT;
+use isomarch::molecule::build::Surfaces;
 use isomarch::molecule::build::{atoms_scene, load_scene};
 use isomarch::molecule::color::{Palette, Range, Values};
 use isomarch::molecule::select::Selection;
@@ -88,10 +89,12 @@ struct NativeMoleculeOptions {
 #[pymethods]
 impl NativeMoleculeOptions {
     #[new]
-    #[pyo3(signature = (*, select=None, hydrogens=None, sharpness=None, radius_scale=None, iso=None, coloring=None, palette=None, range=None, values=None, turntable=None))]
+    #[pyo3(signature = (*, select=None, surfaces=None, apart=None, hydrogens=None, sharpness=None, radius_scale=None, iso=None, coloring=None, palette=None, range=None, values=None, turntable=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         select: Option<String>,
+        surfaces: Option<Choice<Surfaces>>,
+        apart: Option<Vec<String>>,
         hydrogens: Option<bool>,
         sharpness: Option<f64>,
         radius_scale: Option<f64>,
@@ -103,11 +106,18 @@ impl NativeMoleculeOptions {
         turntable: Option<f64>,
     ) -> PyResult<Self> {
         let select = select.map(|s| s.parse::<Selection>().map_err(|e| raise(anyhow::anyhow!("select: {e}")))).transpose()?;
+        let apart = apart
+            .unwrap_or_default()
+            .iter()
+            .map(|s| s.parse::<Selection>().map_err(|e| raise(anyhow::anyhow!("apart: {e}"))))
+            .collect::<PyResult<Vec<_>>>()?;
         let range = range.map(|(min, max)| Range::parse(&format!("{min}:{max}")).map_err(raise)).transpose()?;
         let values = values.map(|v| values_of(&v)).transpose()?.map(Arc::new);
         let choices = MoleculeChoices {
             select,
             values,
+            surfaces: surfaces.map(|s| s.0),
+            apart,
             hydrogens,
             sharpness,
             radius_scale,

@@ -27,6 +27,15 @@ pub struct MoleculeArgs {
     /// (docs/molecules.md) [default: not (water or ion)].
     #[arg(long, value_name = "EXPR")]
     pub select: Option<String>,
+    /// One surface for all the atoms drawn, or one per chain (chains
+    /// combined by max: they meet with a seam instead of melting
+    /// together) [default: one].
+    #[arg(long, value_enum)]
+    pub surfaces: Option<isomarch::molecule::build::Surfaces>,
+    /// A surface of its own for the atoms EXPR selects, e.g. a ligand apart
+    /// from its protein (repeatable; an atom goes to the first that picks it).
+    #[arg(long, value_name = "EXPR")]
+    pub apart: Vec<String>,
     /// Keep hydrogen atoms (left out by default).
     #[arg(long)]
     pub hydrogens: bool,
@@ -71,9 +80,12 @@ impl MoleculeArgs {
         let select = self.select.as_deref().map(|s| s.parse().map_err(|e| anyhow::anyhow!("--select: {e}"))).transpose()?;
         let range = self.range.as_deref().map(isomarch::molecule::color::Range::parse).transpose()?;
         let values = self.color_values.as_deref().map(isomarch::molecule::color::Values::read).transpose()?.map(Arc::new);
+        let apart = self.apart.iter().map(|s| s.parse().map_err(|e| anyhow::anyhow!("--apart: {e}"))).collect::<Result<Vec<_>>>()?;
         Ok(MoleculeChoices {
             select,
             values,
+            surfaces: self.surfaces,
+            apart,
             hydrogens: self.hydrogens.then_some(true),
             sharpness: self.sharpness,
             radius_scale: self.radius_scale,

@@ -9,7 +9,7 @@ use clap::Args;
 use isomarch::checks;
 use isomarch::molecule::playback::Stager;
 use isomarch::open::Input;
-use isomarch::output::{Aov, FileFormat};
+use isomarch::output::{Aov, ColorBar, FileFormat};
 use isomarch::render::offscreen::{RenderJob, render_to_files};
 use isomarch::scene::Scene;
 
@@ -68,6 +68,10 @@ pub struct RenderArgs {
     /// Image size as WxH, overriding the scene's camera.resolution.
     #[arg(long, value_parser = checks::parse_size)]
     size: Option<(u32, u32)>,
+    /// Draw the colour bar of a colouring by value (--color bfactor,
+    /// occupancy, --color-values) with its range under the image.
+    #[arg(long)]
+    legend: bool,
     /// Also write a step-count heatmap PNG with a legend.
     #[arg(long, value_name = "PNG")]
     heatmap: Option<PathBuf>,
@@ -125,12 +129,19 @@ impl TryFrom<RenderArgs> for Plan {
 
     fn try_from(args: RenderArgs) -> Result<Plan> {
         let mut input = args.flags.open(&args.scene, args.trajectory.as_deref(), &args.play)?;
+        let legend = match args.legend {
+            false => None,
+            true => match input.legend()? {
+                Some(legend) => Some(legend.color_bar()),
+                None => bail!("--legend draws the key of a colouring by value: give --color bfactor, occupancy or --color-values"),
+            },
+        };
         if let (Some(range), Some(k)) = (args.batch.frames, args.play.frame) {
             bail!("--frame {k} renders one frame; --frames {}..{} renders a batch: give one of them", range.start, range.end);
         }
         if let Some(range) = args.batch.frames {
             let (scene, stager) = match input {
-                Input::Still(scene) => (scene, None),
+                Input::Still(scene, _) => (scene, None),
                 Input::Frames(mut stager) => {
                     // Every frame asked for must exist before any is rendered;
                     // the message names the first that does not.
@@ -141,7 +152,7 @@ impl TryFrom<RenderArgs> for Plan {
                     (stager.scene(range.start as usize)?.0, Some(stager))
                 }
             };
-            return Ok(Plan::Batch(Batch::new(args, range, scene, stager)?));
+            return Ok(Plan::Batch(Batch::new(args, range, scene, stager, legend)?));
         }
         let scene = input.scene(args.play.frame)?;
         let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
@@ -153,6 +164,7 @@ impl TryFrom<RenderArgs> for Plan {
             aovs: args.aov,
             aov_output: args.aov_output,
             stats: args.stats,
+            legend,
             samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
             ..RenderJob::new(scene, method, size, args.output, args.flags.gpu.timeout()?)
         };
@@ -164,7 +176,7 @@ impl TryFrom<RenderArgs> for Plan {
 }
 
 impl Batch {
-    fn new(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Scene, stager: Option<Stager>) -> Result<Batch> {
+    fn new(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Scene, stager: Option<Stager>, legend: Option<ColorBar>) -> Result<Batch> {
         let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
         let RenderArgs { output, batch, .. } = args;
         if args.heatmap.is_some() || !args.aov.is_empty() || args.stats.is_some() || args.aov_output.is_some() || args.steps_max.is_some() {
@@ -184,6 +196,7 @@ impl Batch {
         let method = scene.marching.method;
         let job = RenderJob {
             samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
+            legend,
             ..RenderJob::new(scene, method, size, output, args.flags.gpu.timeout()?)
         };
         isomarch::render::light::check_method(&job.scene, job.method)?;

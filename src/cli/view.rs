@@ -73,14 +73,14 @@ impl TryFrom<ViewArgs> for ViewOptions {
 
     fn try_from(args: ViewArgs) -> Result<ViewOptions> {
         let input = args.flags.open(&args.scene, args.trajectory.as_deref(), &args.play)?;
-        if (args.every_frame || args.loops.is_some()) && matches!(input, Input::Still(_)) {
+        if (args.every_frame || args.loops.is_some()) && matches!(input, Input::Still(..)) {
             bail!("--every-frame and --loops play a trajectory; {} holds one frame", args.scene.display());
         }
         if args.loops == Some(0) {
             bail!("--loops must be at least 1");
         }
         let (scene, frames) = match input {
-            Input::Still(scene) => (scene, None),
+            Input::Still(scene, _) => (scene, None),
             Input::Frames(mut stager) => {
                 let start = args.play.frame.unwrap_or(0);
                 let (scene, _) = stager.scene(start)?;

@@ -21,7 +21,7 @@ use glam::DVec3;
 
 use std::sync::Arc;
 
-use super::color::{self, Palette, Range, Values};
+use super::color::{self, Legend, Palette, Range, Values};
 use super::select::{self, Selection};
 use super::{Atom, Molecule, elements};
 use crate::scene::Scene;
@@ -103,6 +103,18 @@ impl Coloring {
     }
 }
 
+/// How the atoms drawn make surfaces (`--surfaces`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Surfaces {
+    /// One surface: every atom in one sum, so touching chains melt into
+    /// each other.
+    #[default]
+    One,
+    /// A surface per chain: each chain its own sum, the chains combined by
+    /// max, so that they meet with a seam.
+    PerChain,
+}
+
 /// How a molecule becomes a scene; every field has a command-line flag.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MoleculeOptions {
@@ -111,6 +123,11 @@ pub struct MoleculeOptions {
     pub select: Option<Selection>,
     /// Values to colour by (`Coloring::Values`), shared by every frame.
     pub values: Option<Arc<Values>>,
+    /// One surface or one per chain.
+    pub surfaces: Surfaces,
+    /// Selections whose atoms make surfaces of their own (`--apart`), in
+    /// order; an atom goes to the first that picks it.
+    pub apart: Vec<Selection>,
     /// Keep hydrogen atoms (left out by default: most crystal structures
     /// have none, and in those that do they hide under their heavy atoms).
     pub hydrogens: bool,
@@ -133,6 +150,8 @@ impl Default for MoleculeOptions {
         MoleculeOptions {
             select: None,
             values: None,
+            surfaces: Surfaces::One,
+            apart: Vec::new(),
             hydrogens: false,
             sharpness: SHARPNESS,
             radius_scale: RADIUS_SCALE,
@@ -151,6 +170,8 @@ impl Default for MoleculeOptions {
 pub struct MoleculeChoices {
     pub select: Option<Selection>,
     pub values: Option<Arc<Values>>,
+    pub surfaces: Option<Surfaces>,
+    pub apart: Vec<Selection>,
     pub hydrogens: Option<bool>,
     pub sharpness: Option<f64>,
     pub radius_scale: Option<f64>,
@@ -169,6 +190,8 @@ impl MoleculeChoices {
         MoleculeOptions {
             select: self.select.clone(),
             values: self.values.clone(),
+            surfaces: self.surfaces.unwrap_or(d.surfaces),
+            apart: self.apart.clone(),
             hydrogens: self.hydrogens.unwrap_or(d.hydrogens),
             sharpness: self.sharpness.unwrap_or(d.sharpness),
             radius_scale: self.radius_scale.unwrap_or(d.radius_scale),
@@ -194,6 +217,8 @@ impl MoleculeChoices {
         [
             (self.select.is_some(), "--select"),
             (self.values.is_some(), "--color-values"),
+            (self.surfaces.is_some(), "--surfaces"),
+            (!self.apart.is_empty(), "--apart"),
             (self.hydrogens.is_some(), "--hydrogens"),
             (self.sharpness.is_some(), "--sharpness"),
             (self.radius_scale.is_some(), "--radius-scale"),
@@ -254,6 +279,8 @@ pub struct Notes {
     pub warnings: Vec<String>,
     /// A summary line: atoms used and left out.
     pub summary: String,
+    /// The colour key of a colouring by value.
+    pub legend: Option<Legend>,
 }
 
 /// A number rounded to six decimals, trailing zeros dropped (one kept
@@ -285,9 +312,9 @@ pub struct Stage<'a> {
     /// A comment line after the first, or empty.
     pub note: &'a str,
     pub frame: usize,
-    /// Per atom of the molecule, whether it is selected; `None`: the
-    /// options' selection decides.
-    pub chosen: Option<&'a [bool]>,
+    /// What the selections pick, made on the first frame; `None`: made
+    /// of this molecule.
+    pub picks: Option<&'a Picks>,
 }
 
 /// Where the camera looks and how much it must hold: the sphere about
@@ -314,18 +341,47 @@ impl Framing {
 }
 
 /// The balls `m` is drawn with under `o` (see [`kept`]).
-pub fn balls_of(m: &Molecule, o: &MoleculeOptions, chosen: Option<&[bool]>) -> Result<Vec<Ball>> {
-    Ok(kept(m, o, chosen)?.atoms.iter().map(|a| Ball { center: a.position, radius: radius(&a.element, o), color: None }).collect())
+pub fn balls_of(m: &Molecule, o: &MoleculeOptions, picks: Option<&Picks>) -> Result<Vec<Ball>> {
+    let k = kept(m, o, picks)?;
+    Ok(k.atoms.iter().zip(&k.groups).map(|(a, &group)| Ball { center: a.position, radius: radius(&a.element, o), color: None, group }).collect())
 }
 
 /// The sites of the atoms drawn, in the order of the scene's primitives.
-pub(crate) fn kept_sites(m: &Molecule, o: &MoleculeOptions, chosen: Option<&[bool]>) -> Result<Vec<usize>> {
-    Ok(kept(m, o, chosen)?.atoms.iter().map(|a| a.site).collect())
+pub(crate) fn kept_sites(m: &Molecule, o: &MoleculeOptions, picks: Option<&Picks>) -> Result<Vec<usize>> {
+    Ok(kept(m, o, picks)?.atoms.iter().map(|a| a.site).collect())
 }
 
-/// The atoms drawn, and how many were left out and why.
+/// What the selections pick of a molecule's atoms, one entry per atom:
+/// whether it is drawn, and which `--apart` surface takes it. Made once
+/// on a trajectory's first frame, so that selections by distance pick the
+/// same atoms in every frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Picks {
+    pub chosen: Vec<bool>,
+    pub apart: Vec<Option<usize>>,
+}
+
+impl Picks {
+    pub fn of(m: &Molecule, o: &MoleculeOptions) -> Picks {
+        let chosen = o.selection().matches(&m.atoms);
+        let mut apart = vec![None; m.atoms.len()];
+        for (k, s) in o.apart.iter().enumerate() {
+            for (slot, hit) in apart.iter_mut().zip(s.matches(&m.atoms)) {
+                if hit && slot.is_none() {
+                    *slot = Some(k);
+                }
+            }
+        }
+        Picks { chosen, apart }
+    }
+}
+
+/// The atoms drawn, in the order of the scene's primitives (group by
+/// group), their groups, and how many were left out and why.
 pub(crate) struct Kept<'a> {
     pub atoms: Vec<&'a Atom>,
+    /// Each atom's group (its surface).
+    pub groups: Vec<usize>,
     /// Selected hydrogens left out (no `--hydrogens`).
     pub hydrogens: usize,
     /// Atoms the selection left out.
@@ -336,25 +392,55 @@ pub(crate) struct Kept<'a> {
 /// options' selection, by default every atom but water and ions), of
 /// which hydrogens are left out unless asked for. A selection of no atoms
 /// is an error, as is one of hydrogens alone without `--hydrogens`.
-pub(crate) fn kept<'a>(m: &'a Molecule, o: &MoleculeOptions, chosen: Option<&[bool]>) -> Result<Kept<'a>> {
+pub(crate) fn kept<'a>(m: &'a Molecule, o: &MoleculeOptions, picks: Option<&Picks>) -> Result<Kept<'a>> {
     let evaluated;
-    let chosen = match chosen {
-        Some(c) => c,
+    let picks = match picks {
+        Some(p) => p,
         None => {
-            evaluated = o.selection().matches(&m.atoms);
+            evaluated = Picks::of(m, o);
             &evaluated
         }
     };
-    let selected: Vec<&Atom> = m.atoms.iter().zip(chosen).filter_map(|(a, &c)| c.then_some(a)).collect();
+    let selected: Vec<(&Atom, Option<usize>)> =
+        m.atoms.iter().zip(&picks.chosen).zip(&picks.apart).filter_map(|((a, &c), &apart)| c.then_some((a, apart))).collect();
     if selected.is_empty() {
         bail!("{}: the selection '{}' picks none of its {} atoms", m.source, o.selection(), m.atoms.len());
     }
     let unselected = m.atoms.len() - selected.len();
-    let atoms: Vec<&Atom> = selected.iter().copied().filter(|a| o.hydrogens || !matches!(a.element.as_str(), "H" | "D")).collect();
-    if atoms.is_empty() {
+    let drawn: Vec<(&Atom, Option<usize>)> =
+        selected.iter().copied().filter(|(a, _)| o.hydrogens || !matches!(a.element.as_str(), "H" | "D")).collect();
+    if drawn.is_empty() {
         bail!("{}: all {} atoms selected are hydrogens, which are left out unless --hydrogens is given", m.source, selected.len());
     }
-    Ok(Kept { hydrogens: selected.len() - atoms.len(), unselected, atoms })
+    // Groups: the main surface (one, or a chain each in order of
+    // appearance), then each `--apart` surface.
+    let mut chains: Vec<&str> = Vec::new();
+    if o.surfaces == Surfaces::PerChain {
+        for (a, _) in drawn.iter().filter(|(_, apart)| apart.is_none()) {
+            if !chains.contains(&a.chain.as_str()) {
+                chains.push(&a.chain);
+            }
+        }
+    }
+    let main = chains.len().max(usize::from(drawn.iter().any(|(_, apart)| apart.is_none())));
+    let mut used = vec![false; o.apart.len()];
+    let mut grouped: Vec<(usize, &Atom)> = drawn
+        .iter()
+        .map(|&(a, apart)| match apart {
+            Some(k) => {
+                used[k] = true;
+                (main + k, a)
+            }
+            None => (chains.iter().position(|c| *c == a.chain).unwrap_or(0), a),
+        })
+        .collect();
+    if let Some(k) = used.iter().position(|u| !u) {
+        bail!("{}: --apart '{}' picks none of the atoms drawn (or an earlier --apart took them all)", m.source, o.apart[k]);
+    }
+    // Every group holds an atom, so the numbers have no gaps.
+    grouped.sort_by_key(|(g, _)| *g);
+    let (groups, atoms): (Vec<usize>, Vec<&Atom>) = grouped.into_iter().unzip();
+    Ok(Kept { hydrogens: selected.len() - atoms.len(), unselected, atoms, groups })
 }
 
 /// An element's radius as drawn (Bondi's, or the fallback, times the scale).
@@ -364,9 +450,9 @@ fn radius(symbol: &str, o: &MoleculeOptions) -> f64 {
 
 /// [`scene_text`] of a trajectory's frame (see [`Stage`]).
 pub fn staged_text(m: &Molecule, o: &MoleculeOptions, stage: Stage) -> Result<(String, Notes)> {
-    let Stage { framing, note, frame, chosen } = stage;
+    let Stage { framing, note, frame, picks } = stage;
     o.check()?;
-    let Kept { atoms, hydrogens, unselected } = kept(m, o, chosen)?;
+    let Kept { atoms, groups, hydrogens, unselected } = kept(m, o, picks)?;
     // Elements without a Bondi radius: one warning naming each with its
     // first line and count.
     let mut unknown: BTreeMap<&str, (usize, usize)> = BTreeMap::new();
@@ -422,8 +508,12 @@ pub fn staged_text(m: &Molecule, o: &MoleculeOptions, stage: Stage) -> Result<(S
             Coloring::None => None,
         }
     };
-    let balls: Vec<Ball> =
-        atoms.iter().enumerate().map(|(i, a)| Ball { center: a.position, radius: radius(&a.element, o), color: color(i, a) }).collect();
+    let balls: Vec<Ball> = atoms
+        .iter()
+        .zip(&groups)
+        .enumerate()
+        .map(|(i, (a, &group))| Ball { center: a.position, radius: radius(&a.element, o), color: color(i, a), group })
+        .collect();
     let mut left_out = Vec::new();
     if unselected > 0 {
         left_out.push(match &o.select {
@@ -433,6 +523,15 @@ pub fn staged_text(m: &Molecule, o: &MoleculeOptions, stage: Stage) -> Result<(S
     }
     if hydrogens > 0 {
         left_out.push(format!("{hydrogens} hydrogens left out"));
+    }
+    if o.coloring.value().is_some() {
+        let label = match (&o.values, o.coloring) {
+            (Some(v), Coloring::Values) => std::path::Path::new(&v.source).file_stem().map_or(v.source.clone(), |s| s.to_string_lossy().into_owned()),
+            (_, Coloring::Occupancy) => "occupancy".into(),
+            _ if palette == Palette::Alphafold => "pLDDT".into(),
+            _ => "B-factor".into(),
+        };
+        notes.legend = Some(Legend { palette, range, label });
     }
     notes.summary = format!(
         "{}: {} atoms{}{}{}, {} chain{}",
@@ -490,6 +589,8 @@ pub struct Ball {
     pub center: DVec3,
     pub radius: f64,
     pub color: Option<[f64; 3]>,
+    /// Its group (surface): balls come group by group.
+    pub group: usize,
 }
 
 /// The scene of `balls` as RON text, after the comment lines `made_by`:
@@ -527,8 +628,12 @@ fn framed_text(made_by: &str, balls: &[Ball], o: &MoleculeOptions, framing: Fram
     let _ = writeln!(s, "    ],");
     let _ = writeln!(s, "    iso: {},", num(o.iso));
     let _ = writeln!(s, "    marching: (method: {METHOD:?}, min_step: {}, max_steps: {MAX_STEPS}),", num(MIN_STEP));
-    let _ = writeln!(s, "    groups: [(primitives: [");
-    for b in balls {
+    let _ = write!(s, "    groups: [(primitives: [");
+    for (i, b) in balls.iter().enumerate() {
+        if i > 0 && b.group != balls[i - 1].group {
+            let _ = write!(s, "    ]), (primitives: [");
+        }
+        let _ = writeln!(s);
         let _ = write!(
             s,
             "        Point(center: {}, kernel: Gaussian(r: {}, s: {}, weight: Some({}))",
@@ -540,8 +645,9 @@ fn framed_text(made_by: &str, balls: &[Ball], o: &MoleculeOptions, framing: Fram
         if let Some(c) = b.color {
             let _ = write!(s, ", color: Some(({}, {}, {}))", num(c[0]), num(c[1]), num(c[2]));
         }
-        let _ = writeln!(s, "),");
+        let _ = write!(s, "),");
     }
+    let _ = writeln!(s);
     let _ = writeln!(s, "    ])],");
     let _ = writeln!(s, ")");
     s
@@ -574,7 +680,7 @@ pub fn atoms_scene(centers: &[DVec3], radii: &[f64], colors: Option<&[[f64; 3]]>
         bail!("color {i} must be finite and non-negative, got {c:?}");
     }
     let balls: Vec<Ball> =
-        (0..centers.len()).map(|i| Ball { center: centers[i], radius: radii[i] * o.radius_scale, color: colors.map(|c| c[i]) }).collect();
+        (0..centers.len()).map(|i| Ball { center: centers[i], radius: radii[i] * o.radius_scale, color: colors.map(|c| c[i]), group: 0 }).collect();
     let made_by = format!("// Made by isomarch from {} atoms given as arrays.", balls.len());
     Ok(Scene::parse(&balls_text(&made_by, &balls, o), "atoms")?)
 }

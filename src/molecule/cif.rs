@@ -200,6 +200,8 @@ fn read_rows(
             .collect();
     let mut models: Vec<&str> = Vec::new();
     let mut alt_of_site: std::collections::HashMap<Vec<&str>, &str> = std::collections::HashMap::new();
+    let residue_cols: Vec<usize> = [chain_col, resid_col, icode_col].into_iter().flatten().collect();
+    let mut chosen_residue: std::collections::HashMap<Vec<&str>, &str> = std::collections::HashMap::new();
     for row in values.chunks(width) {
         let line = row[0].line;
         if let Some(m) = model_col.map(|c| row[c].s) {
@@ -216,6 +218,13 @@ fn read_rows(
         let site = *sites;
         *sites += 1;
         if let Some(a) = alt_col.map(|c| row[c].s).filter(|a| !missing(a)) {
+            // Conformers that are different residues (microheterogeneity):
+            // the first given's residue is kept whole, as in pdb.rs.
+            let residue: Vec<&str> = residue_cols.iter().map(|&c| row[c].s).collect();
+            let name = resname_col.map_or("", |c| row[c].s);
+            if *chosen_residue.entry(residue).or_insert(name) != name {
+                continue;
+            }
             let site: Vec<&str> = site_cols.iter().map(|&c| row[c].s).collect();
             if *alt_of_site.entry(site).or_insert(a) != a {
                 continue;
@@ -266,6 +275,17 @@ mod tests {
         assert!(m.atoms[1].hetero && !m.atoms[0].hetero);
         assert_eq!((m.atoms[1].beta, m.atoms[1].occupancy), (0.0, 1.0), "columns the table lacks keep their defaults");
         assert_eq!(m.extra_models, 1);
+    }
+
+    #[test]
+    fn a_residue_whose_conformers_are_different_residues_keeps_the_first_whole() {
+        let head = "data_T\nloop_\n_atom_site.group_PDB\n_atom_site.type_symbol\n_atom_site.label_atom_id\n_atom_site.label_alt_id\n\
+                    _atom_site.label_comp_id\n_atom_site.auth_seq_id\n_atom_site.Cartn_x\n_atom_site.Cartn_y\n_atom_site.Cartn_z\n_atom_site.auth_asym_id\n";
+        let rows = "ATOM N N A PRO 22 1 0 0 A\nATOM N N B SER 22 1.1 0 0 A\nATOM C CA A PRO 22 2 0 0 A\nATOM C CA B SER 22 2.1 0 0 A\n\
+                    ATOM O OG B SER 22 4 0 0 A\nATOM N N . GLY 23 6 0 0 A\n";
+        let m = parse(&format!("{head}{rows}"), "t.cif").unwrap();
+        let kept: Vec<(&str, &str)> = m.atoms.iter().map(|a| (a.resname.as_str(), a.name.as_str())).collect();
+        assert_eq!(kept, [("PRO", "N"), ("PRO", "CA"), ("GLY", "N")]);
     }
 
     #[test]

@@ -167,6 +167,30 @@ pub fn shapely(resname: &str) -> Option<[f64; 3]> {
     TABLE.iter().find(|(n, _)| *n == resname).map(|(_, c)| srgb(*c))
 }
 
+/// What a colouring by value shows: its palette over its range, and what
+/// the values are (`--legend` draws it under the image).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Legend {
+    pub palette: Palette,
+    pub range: Range,
+    pub label: String,
+}
+
+impl Legend {
+    /// The colour bar: 256 samples over the range (AlphaFold's bands over
+    /// pLDDT 0 to 100, whatever the range).
+    pub fn color_bar(&self) -> crate::output::ColorBar {
+        let range = if self.palette.uses_range() { self.range } else { Range { min: 0.0, max: 100.0 } };
+        let colors = (0..256).map(|k| self.palette.srgb(range.min + (range.max - range.min) * f64::from(k) / 255.0, range)).collect();
+        let show = |v: f64| {
+            let s = format!("{v:.2}");
+            let s = s.trim_end_matches('0').trim_end_matches('.');
+            if s == "-0" { "0".to_string() } else { s.to_string() }
+        };
+        crate::output::ColorBar { colors, low: show(range.min), high: show(range.max), label: self.label.clone() }
+    }
+}
+
 /// Values to colour atoms by, one row per frame (`--color-values FILE`,
 /// Python's `values=`): a row holds one value per atom of the file (by
 /// site) or per atom drawn (in order).

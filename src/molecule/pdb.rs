@@ -80,6 +80,9 @@ pub fn parse_at(text: &str, file: &str, skipped: usize) -> Result<Molecule, Mole
     let mut atoms = Vec::new();
     let mut models = 0usize;
     let mut alt_of_site: std::collections::HashMap<(String, String), char> = std::collections::HashMap::new();
+    // Per residue (chain, number, insertion code: columns 22-27): the
+    // residue name of its first conformer given.
+    let mut chosen_residue: std::collections::HashMap<String, String> = std::collections::HashMap::new();
     let cut_short = !text.is_empty() && !text.ends_with('\n');
     let count = text.lines().count();
     let mut sites = 0usize;
@@ -109,10 +112,18 @@ pub fn parse_at(text: &str, file: &str, skipped: usize) -> Result<Molecule, Mole
         // Alternate locations per atom site (name, residue, chain, number,
         // insertion code: columns 13-16 and 18-27): the first conformer
         // given of each site is kept, so a site given only as B and C stays.
+        // Where conformers are different residues (microheterogeneity:
+        // 1EJG's residue 22 is PRO in A, SER in B and C), the residue of
+        // the first conformer given is kept whole and the others' atoms
+        // left out, as gemmi and MDAnalysis do.
         let site = sites;
         sites += 1;
         let altloc = line.as_bytes()[16] as char;
         if altloc != ' ' {
+            let chosen = chosen_residue.entry(line[21..27].to_string()).or_insert_with(|| line[17..20].to_string());
+            if line[17..20] != *chosen {
+                continue;
+            }
             let site = (line[12..16].to_string(), line[17..27].to_string());
             if *alt_of_site.entry(site).or_insert(altloc) != altloc {
                 continue;
@@ -196,6 +207,23 @@ mod tests {
         assert_eq!(m.atoms.len(), 1);
         assert_eq!(m.atoms[0].position.x, 1.0);
         assert_eq!(m.extra_models, 1);
+    }
+
+    #[test]
+    fn a_residue_whose_conformers_are_different_residues_keeps_the_first_whole() {
+        // 1EJG's residue 22: PRO in conformer A, SER in B (and C).
+        let t = "ATOM      1  N  APRO A  22       1.000   0.000   0.000  0.60  5.00           N  \n\
+                 ATOM      2  N  BSER A  22       1.100   0.000   0.000  0.40  5.00           N  \n\
+                 ATOM      3  CA APRO A  22       2.000   0.000   0.000  0.60  5.00           C  \n\
+                 ATOM      4  CA BSER A  22       2.100   0.000   0.000  0.40  5.00           C  \n\
+                 ATOM      5  CB BSER A  22       3.100   0.000   0.000  0.40  5.00           C  \n\
+                 ATOM      6  OG BSER A  22       4.100   0.000   0.000  0.40  5.00           O  \n\
+                 ATOM      7  CD APRO A  22       5.000   0.000   0.000  0.60  5.00           C  \n\
+                 ATOM      8  N   GLY A  23       6.000   0.000   0.000  1.00  5.00           N  \n";
+        let m = parse(t, "t.pdb").unwrap();
+        let kept: Vec<(&str, &str)> = m.atoms.iter().map(|a| (a.resname.as_str(), a.name.as_str())).collect();
+        assert_eq!(kept, [("PRO", "N"), ("PRO", "CA"), ("PRO", "CD"), ("GLY", "N")]);
+        assert_eq!(m.atoms.iter().map(|a| a.site).collect::<Vec<_>>(), [0, 2, 6, 7], "sites still count every record");
     }
 
     #[test]

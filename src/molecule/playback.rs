@@ -21,7 +21,7 @@ use anyhow::{Result, bail};
 use glam::DVec3;
 
 use super::MoleculeOptions;
-use super::build::{Framing, Notes, Stage, balls_of, staged_text};
+use super::build::{Framing, Notes, Picks, Stage, balls_of, staged_text};
 use super::trajectory::Trajectory;
 use crate::scene::Scene;
 
@@ -44,10 +44,10 @@ pub struct Stager {
     pub trajectory: Trajectory,
     pub options: MoleculeOptions,
     pub framing: Framing,
-    /// Per atom of the topology, whether the selection picks it: chosen
-    /// once, on the first frame, so every frame draws the same atoms
-    /// (a selection by distance would otherwise change with them).
-    chosen: Vec<bool>,
+    /// What the selections pick of the topology's atoms, made once, on
+    /// the first frame, so every frame draws the same atoms in the same
+    /// surfaces (a selection by distance would otherwise change with them).
+    picks: Picks,
     adjust: Option<Adjust>,
     /// Frame 0's scene as parsed, and the site of each of its primitives:
     /// later frames move the primitives of a copy (see [`Stager::scene`]).
@@ -64,8 +64,8 @@ impl Stager {
     /// A stager with the camera framed by `rule`.
     pub fn new(trajectory: Trajectory, options: MoleculeOptions, rule: FramingRule) -> Result<Stager> {
         options.check()?;
-        let chosen = options.selection().matches(&trajectory.topology.atoms);
-        let first = balls_of(&trajectory.topology, &options, Some(&chosen))?;
+        let picks = Picks::of(&trajectory.topology, &options);
+        let first = balls_of(&trajectory.topology, &options, Some(&picks))?;
         let mut framing = Framing::of(&first);
         let mut t = trajectory;
         if rule == FramingRule::All {
@@ -73,7 +73,7 @@ impl Stager {
             for k in 0..t.len() {
                 let frame = t.frames.read(k)?;
                 let m = t.molecule_at(&frame)?;
-                for b in balls_of(&m, &options, Some(&chosen))? {
+                for b in balls_of(&m, &options, Some(&picks))? {
                     lo = lo.min(b.center);
                     hi = hi.max(b.center);
                     widest = widest.max(b.radius);
@@ -82,7 +82,7 @@ impl Stager {
             // The box's half diagonal holds every centre of every frame.
             framing = Framing { center: 0.5 * (lo + hi), reach: 0.5 * (hi - lo).length() + widest };
         }
-        Ok(Stager { trajectory: t, options, framing, chosen, adjust: None, template: None })
+        Ok(Stager { trajectory: t, options, framing, picks, adjust: None, template: None })
     }
 
     /// Applies `adjust` to every scene built from now on.
@@ -115,7 +115,7 @@ impl Stager {
         let m = self.trajectory.molecule_at(&frame)?;
         let time = frame.time_ps.map_or(String::new(), |t| format!(", t = {} ps", super::trajectory::ps(t)));
         let note = format!("Frame {k} of {} ({} frames{time}), camera on {}.", self.trajectory.source, self.len(), describe(&self.framing));
-        let stage = Stage { framing: Some(self.framing), note: &note, frame: k, chosen: Some(&self.chosen) };
+        let stage = Stage { framing: Some(self.framing), note: &note, frame: k, picks: Some(&self.picks) };
         let (text, notes) = staged_text(&m, &self.options, stage)?;
         Ok((text, frame.time_ps, notes))
     }
@@ -132,7 +132,7 @@ impl Stager {
                 let frame = self.trajectory.frames.read(k)?;
                 self.trajectory.check(&frame)?;
                 let mut scene = template.clone();
-                for (p, &site) in scene.groups[0].iter_mut().zip(sites) {
+                for (p, &site) in scene.groups.iter_mut().flatten().zip(sites) {
                     if let crate::scene::Primitive::Point { center, .. } = p {
                         *center = frame.positions[site].map(written);
                     }
@@ -144,11 +144,11 @@ impl Stager {
             }
             None => {
                 let (scene, time) = self.parsed(k)?;
-                let sites = super::build::kept_sites(&self.trajectory.topology, &self.options, Some(&self.chosen))?;
+                let sites = super::build::kept_sites(&self.trajectory.topology, &self.options, Some(&self.picks))?;
                 // Values per frame change the colours too: each frame is
                 // then built from its text.
                 let moving_colors = self.options.values.as_ref().is_some_and(|v| v.frames() > 1);
-                if scene.groups.len() == 1 && scene.groups[0].len() == sites.len() && !moving_colors {
+                if scene.primitive_count() == sites.len() && !moving_colors {
                     self.template = Some((scene.clone(), sites));
                 }
                 (scene, time)

@@ -42,24 +42,53 @@ pub fn heatmap_image(width: u32, height: u32, steps: &[u32], steps_max: Option<u
             img.put_pixel(x, y, color(f64::from(s) / f64::from(max)));
         }
     }
+    let top = format!("{}{max}", if steps_max.is_some() { ">=" } else { "" });
+    draw_color_bar(&mut img, height, color, "0", &top, "steps");
+    img
+}
+
+/// Draws a colour bar in the `LEGEND_HEIGHT` rows from `top` down: the
+/// colours of `color` on [0, 1] left to right, `low` under its left end,
+/// `high` under its right end and `label` between them where it fits.
+pub fn draw_color_bar(img: &mut RgbImage, top: u32, color: impl Fn(f64) -> Rgb<u8>, low: &str, high: &str, label: &str) {
+    let width = img.width();
     let margin = 2u32.min(width / 4);
     let bar = width.saturating_sub(2 * margin).max(1);
     for x in 0..bar {
         let c = color(f64::from(x) / f64::from(bar.saturating_sub(1).max(1)));
         for y in 0..BAR_HEIGHT {
-            img.put_pixel(margin + x, height + BAR_TOP + y, c);
+            img.put_pixel(margin + x, top + BAR_TOP + y, c);
         }
     }
-    let top = format!("{}{max}", if steps_max.is_some() { ">=" } else { "" });
-    draw_text(&mut img, i64::from(margin), height + TEXT_TOP, "0");
-    let right = i64::from(margin + bar) - 8 * top.len() as i64;
-    draw_text(&mut img, right, height + TEXT_TOP, &top);
-    let label = "steps";
+    draw_text(img, i64::from(margin), top + TEXT_TOP, low);
+    let right = i64::from(margin + bar) - 8 * high.len() as i64;
+    draw_text(img, right, top + TEXT_TOP, high);
     let mid = i64::from(width / 2) - 4 * label.len() as i64;
-    if mid > i64::from(margin) + 12 && mid + 8 * label.len() as i64 + 4 < right {
-        draw_text(&mut img, mid, height + TEXT_TOP, label);
+    if mid > i64::from(margin) + 8 * low.len() as i64 + 4 && mid + 8 * label.len() as i64 + 4 < right {
+        draw_text(img, mid, top + TEXT_TOP, label);
     }
-    img
+}
+
+/// A colour key under an image: the colours along its bar, the values at
+/// its ends and what they are (`--legend`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ColorBar {
+    /// The bar's colours, sRGB, from its low end to its high end, sampled
+    /// evenly (nearest sample drawn).
+    pub colors: Vec<[u8; 3]>,
+    pub low: String,
+    pub high: String,
+    pub label: String,
+}
+
+/// `img` with `bar` drawn in `LEGEND_HEIGHT` rows added under it.
+pub fn with_color_bar(img: &RgbImage, bar: &ColorBar) -> RgbImage {
+    let mut out = RgbImage::from_pixel(img.width(), img.height() + LEGEND_HEIGHT, Rgb([20, 20, 24]));
+    image::imageops::replace(&mut out, img, 0, 0);
+    let n = bar.colors.len().max(1);
+    let color = |f: f64| Rgb(bar.colors.get(((f * (n - 1) as f64).round() as usize).min(n - 1)).copied().unwrap_or([0, 0, 0]));
+    draw_color_bar(&mut out, img.height(), color, &bar.low, &bar.high, &bar.label);
+    out
 }
 
 /// Step heatmaps of several methods side by side on one shared scale, each

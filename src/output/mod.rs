@@ -11,7 +11,7 @@ use std::path::Path;
 use anyhow::{Context as _, Result, bail};
 use serde::Serialize;
 
-pub use heatmap::{LEGEND_HEIGHT, heatmap_grid, heatmap_image};
+pub use heatmap::{ColorBar, LEGEND_HEIGHT, heatmap_grid, heatmap_image, with_color_bar};
 
 use crate::layout::{FLAG_HIT, FLAG_OUT_OF_STEPS, GpuResult};
 
@@ -119,10 +119,14 @@ impl FileFormat {
 }
 
 /// Encodes the frame's shaded image: 8-bit sRGB PNG, or the linear colour
-/// as 32-bit float OpenEXR (channels R, G, B) with any `aovs` beside it.
-pub fn shaded_bytes(frame: &Frame, format: FileFormat, aovs: &[Aov]) -> Result<Vec<u8>> {
+/// as 32-bit float OpenEXR (channels R, G, B) with any `aovs` beside it;
+/// a PNG with `legend` drawn under it.
+pub fn shaded_bytes(frame: &Frame, format: FileFormat, aovs: &[Aov], legend: Option<&ColorBar>) -> Result<Vec<u8>> {
     match format {
-        FileFormat::Png => png_bytes(&frame.shaded()),
+        FileFormat::Png => match legend {
+            Some(bar) => png_bytes(&with_color_bar(&frame.shaded(), bar)),
+            None => png_bytes(&frame.shaded()),
+        },
         FileFormat::Exr => exr_layers(frame, true, aovs),
         other => bail!("an image cannot be written as .{}", other.extension()),
     }

@@ -30,7 +30,7 @@ const MAX_LISTS: usize = 65_535 * 64 - 1;
 pub const MAX_INDEXED_PRIMITIVES: usize = 65_535 * 64;
 /// Groups at most: the walk crosses the cells once per group, so a scene
 /// of many groups marches faster flat.
-pub const MAX_INDEX_GROUPS: usize = 16;
+pub const MAX_INDEX_GROUPS: usize = 256;
 /// Cell size over the median index radius: a cell of side h holds about
 /// `density (h + 2ρ)³` entries and a ray crosses `1/h` cells per unit of
 /// length, so the entries a ray visits per unit of length, `density (h +
@@ -221,9 +221,38 @@ impl GridSpec {
 
     /// Loop turns of one fold over the primitives along an interval (the
     /// walk's nested loops: one per group, per cell and per entry), when no
-    /// list holds more than `longest` entries.
-    pub fn interval_iterations(&self, longest: usize) -> usize {
-        self.groups * (1 + self.cells_per_interval() * (1 + longest)) + self.everywhere
+    /// list holds more than `longest` entries and no cell more than
+    /// `crowd`, all groups together.
+    pub fn interval_iterations(&self, longest: usize, crowd: usize) -> usize {
+        let cells = self.cells_per_interval();
+        self.groups * (1 + cells) + cells * crowd.min(self.groups * longest) + self.everywhere
+    }
+
+    /// An upper bound on the entries of one cell, all groups together:
+    /// the most primitives whose boxes (padded for the GPU's rounding, and
+    /// without its sphere test) share a cell. Only a walk over several
+    /// groups needs it; one group's is its longest list.
+    pub fn crowd(&self, scene: &Scene, radii: &[Option<f64>]) -> usize {
+        let [nx, ny, nz] = self.dims.map(|d| d as usize);
+        let mut counts = vec![0u32; nx * ny * nz];
+        let most = f64::from(MAX_CELLS_PER_PRIMITIVE);
+        for (p, r) in scene.primitives().zip(radii) {
+            let (Primitive::Point { center, .. }, Some(r)) = (p, r) else { continue };
+            let pad = *r * (1.0 + 1e-5) + f64::from(CELL_PAD) * self.cell + 1e-5 * (*center - self.origin).abs().max_element() + 1e-6 * self.cell;
+            if span(*r * (1.0 - 1e-5), self.cell).powi(3) > most {
+                continue; // in its group's everywhere list, counted apart
+            }
+            let cell_of = |x: f64, n: usize| ((x / self.cell).floor().max(0.0) as usize).min(n - 1);
+            let (lo, hi) = (*center - DVec3::splat(pad) - self.origin, *center + DVec3::splat(pad) - self.origin);
+            for z in cell_of(lo.z, nz)..=cell_of(hi.z, nz) {
+                for y in cell_of(lo.y, ny)..=cell_of(hi.y, ny) {
+                    for x in cell_of(lo.x, nx)..=cell_of(hi.x, nx) {
+                        counts[(z * ny + y) * nx + x] += 1;
+                    }
+                }
+            }
+        }
+        counts.into_iter().max().unwrap_or(0) as usize
     }
 
     /// Loop turns of the look-ahead over empty cells (once a turn).
@@ -240,8 +269,8 @@ impl GridSpec {
     }
 
     /// The same for a point query: its one cell.
-    pub fn point_iterations(&self, longest: usize) -> usize {
-        self.groups * (2 + longest) + self.everywhere
+    pub fn point_iterations(&self, longest: usize, crowd: usize) -> usize {
+        self.groups * 2 + crowd.min(self.groups * longest) + self.everywhere
     }
 }
 

@@ -22,7 +22,7 @@ use crate::layout::{self, GpuBound, GpuGlobals, GpuLight, GpuMarchState, GpuPrim
 use crate::method::Method;
 use crate::scene::{self, Primitive, Scene};
 use crate::settings::{QuadSettings, Refinement};
-use index::{GridSpec, IndexStats};
+use index::{GridSpec, IndexStats, index_radii};
 
 /// SPIR-V of the march kernel, built by build.rs.
 const MARCH_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march.spv"));
@@ -118,17 +118,23 @@ impl FoldCost {
         FoldCost { interval: primitives, point: primitives, cull: primitives, skip: 0 }
     }
 
-    /// With the camera's tile lists, whose longest holds `longest` entries:
-    /// a walk reads at most a whole list per group, and the skip to the
-    /// first support as many.
-    fn tiles(grid: &GridSpec, longest: usize) -> FoldCost {
-        let walk = grid.groups * (2 + longest) + grid.everywhere;
+    /// With the camera's tile lists: a walk reads at most its tile's list
+    /// of every group (`crowd` entries at most, all groups together), and
+    /// the skip to the first support as many.
+    fn tiles(grid: &GridSpec, lists: &tiles::TileLists) -> FoldCost {
+        let walk = grid.groups * 2 + lists.crowd.min(grid.groups * lists.longest) + grid.everywhere;
         FoldCost { interval: walk, point: walk, cull: 0, skip: walk }
     }
 
-    /// With the index whose longest cell list holds `longest` entries.
-    fn indexed(grid: &GridSpec, longest: usize) -> FoldCost {
-        FoldCost { interval: grid.interval_iterations(longest), point: grid.point_iterations(longest), cull: 0, skip: grid.skip_iterations() }
+    /// With the index whose longest cell list holds `longest` entries and
+    /// whose cells hold at most `crowd`, all groups together.
+    fn indexed(grid: &GridSpec, longest: usize, crowd: usize) -> FoldCost {
+        FoldCost {
+            interval: grid.interval_iterations(longest, crowd),
+            point: grid.point_iterations(longest, crowd),
+            cull: 0,
+            skip: grid.skip_iterations(),
+        }
     }
 }
 
@@ -658,7 +664,10 @@ impl Renderer {
         if entries > grid.entry_capacity {
             bail!("the spatial index holds {entries} entries, more than the {} it was sized for", grid.entry_capacity);
         }
-        self.slice_steps = slice_steps(FoldCost::indexed(&grid, longest), self.scene.lights.len())
+        // With several groups a walk reads every group's list of a cell:
+        // bounded by the most primitives any cell may hold (host-side).
+        let crowd = if grid.groups > 1 { grid.crowd(&self.scene, &index_radii(&self.scene)) } else { longest };
+        self.slice_steps = slice_steps(FoldCost::indexed(&grid, longest, crowd), self.scene.lights.len())
             .map_err(|e| anyhow::anyhow!("{}: groups: {e}", self.scene.source))?;
         let bytes: usize = grid.buffer_words().iter().sum::<usize>() * 4;
         self.index_stats = Some(IndexStats {
@@ -930,7 +939,7 @@ impl Renderer {
         let started = Instant::now();
         let prims = primitives_with_radii(&self.scene, &index::index_radii(&self.scene));
         let lists = tiles::TileLists::build(&prims, grid.groups as u32, camera, width, height);
-        let Ok(steps) = slice_steps(FoldCost::tiles(&grid, lists.longest), self.scene.lights.len()) else {
+        let Ok(steps) = slice_steps(FoldCost::tiles(&grid, &lists), self.scene.lights.len()) else {
             // A list longer than a dispatch's loop budget: the grid.
             return Ok(false);
         };

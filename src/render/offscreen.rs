@@ -32,6 +32,8 @@ pub struct RenderJob {
     pub timeout: Duration,
     /// Anti-aliasing: rays per pixel, averaged ([`march_image`]).
     pub samples: u32,
+    /// A colour key drawn under the image (PNG only).
+    pub legend: Option<output::ColorBar>,
 }
 
 impl RenderJob {
@@ -47,6 +49,7 @@ impl RenderJob {
             height,
             output,
             heatmap: None,
+            legend: None,
             steps_max: None,
             aovs: vec![],
             aov_output: None,
@@ -73,6 +76,9 @@ impl RenderJob {
     /// same file when `-o` is EXR), `--stats` JSON.
     pub fn outputs(&self) -> Result<JobOutputs> {
         let image = FileFormat::of("-o", &self.output, FileFormat::IMAGE)?;
+        if self.legend.is_some() && image != FileFormat::Png {
+            anyhow::bail!("--legend draws the colour bar on a PNG image; -o {} is not one", self.output.display());
+        }
         if let Some(path) = &self.heatmap {
             FileFormat::of("--heatmap", path, &[FileFormat::Png])?;
         }
@@ -340,7 +346,7 @@ pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStat
         Some(path) if *path == job.output => (&job.aovs[..], None),
         other => (&[][..], other.as_ref()),
     };
-    let mut files = vec![(job.output.clone(), output::shaded_bytes(&frame, outputs.image, aovs_inside)?)];
+    let mut files = vec![(job.output.clone(), output::shaded_bytes(&frame, outputs.image, aovs_inside, job.legend.as_ref())?)];
     if let Some(path) = &job.heatmap {
         let img = output::heatmap_image(frame.width, frame.height, &frame.steps(), job.steps_max);
         files.push((path.clone(), output::png_bytes(&img)?));

@@ -46,6 +46,9 @@ pub struct TileLists {
     pub entries: Vec<[u32; 2]>,
     /// The longest list's length.
     pub longest: usize,
+    /// The most entries of one tile, all its groups' lists together (a
+    /// walk reads every group's list of its tile).
+    pub crowd: usize,
 }
 
 /// The camera's frame: eye, unit axes, and the half-extents of the image
@@ -204,7 +207,8 @@ impl TileLists {
             }
         }
         let longest = counts.iter().copied().max().unwrap_or(0) as usize;
-        TileLists { width, height, tiles_x, tiles_y, groups: groups.max(1), starts, entries, longest }
+        let crowd = counts.chunks(groups.max(1) as usize).map(|c| c.iter().map(|&n| n as usize).sum::<usize>()).max().unwrap_or(0);
+        TileLists { width, height, tiles_x, tiles_y, groups: groups.max(1), starts, entries, longest, crowd }
     }
 
     /// Group `g`'s list of tile `tile` (row-major).
