@@ -51,7 +51,12 @@ def __dir__():
 
 def _molecule_options(options: Optional[MoleculeOptions], fields: dict) -> MoleculeOptions:
     """``options``, or one made of its fields given as keywords
-    (``hydrogens=True``); not both."""
+    (``hydrogens=True``); not both. ``color=`` is ``coloring=`` (the
+    command line's ``--color``)."""
+    if "color" in fields:
+        if "coloring" in fields:
+            raise TypeError("give color or coloring, not both")
+        fields["coloring"] = fields.pop("color")
     if options is None:
         return MoleculeOptions(**fields)
     if fields:

@@ -332,7 +332,7 @@ def test_selections_and_values_per_frame_equal_the_clis(renderer, tmp_path):
     # A selection as the command line's --select: the same scene.
     out = tmp_path / "sel.ron"
     cli("scene", PDB, "-o", out, "--select", "resid 151 to 170 and not water")
-    chosen = isomarch.Scene.from_molecule(PDB, select="resid 151 to 170 and not water")
+    chosen = isomarch.Scene.from_molecule(PDB, select="resid 151 to 170 and not water", color="bfactor")
     assert chosen.primitive_count == isomarch.Scene.load(out).primitive_count == 180, chosen.primitive_count
     assert isomarch.MoleculeOptions().select == "not (water or ion)"
     message = cli("scene", PDB, "-o", out, "--select", "chian A", check=False).stderr.strip()
