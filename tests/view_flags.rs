@@ -102,3 +102,23 @@ fn zoom_and_field_of_view_size_a_spheres_disc() {
         assert!(err.contains(says), "{err}");
     }
 }
+
+/// `isomarch scene` with view flags writes the camera they make: the file
+/// renders what `render` makes of the molecule with the same flags, byte
+/// for byte (and not what it makes without them).
+#[test]
+fn a_scene_written_with_view_flags_renders_as_the_flags_do() {
+    let dir = scratch("view-scene");
+    let pdb = repo_root().join("tests/data/molecules/1A8O.pdb");
+    let flags = ["--turn", "y:90", "--zoom", "1.5", "--turn", "z:30", "--fov", "25"];
+    let ron = dir.join("turned.ron");
+    isomarch(["scene", pdb.to_str().unwrap(), "-o", ron.to_str().unwrap()]).args(flags).ok();
+    let render = |input: &std::path::Path, extra: &[&str], name: &str| -> Vec<u8> {
+        let png = dir.join(name);
+        isomarch(["render", input.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "64x64"]).args(extra).ok();
+        std::fs::read(png).unwrap()
+    };
+    let from_file = render(&ron, &[], "file.png");
+    assert_eq!(from_file, render(&pdb, &flags, "flags.png"), "the scene file's camera is not the flags'");
+    assert_ne!(from_file, render(&pdb, &[], "plain.png"), "the flags changed nothing");
+}

@@ -284,6 +284,11 @@ pub struct ViewFlags {
 }
 
 impl ViewFlags {
+    /// Whether no view flag was given.
+    pub fn is_empty(&self) -> bool {
+        self.turn.is_empty() && self.zoom.is_none() && self.fov.is_none()
+    }
+
     /// Checks the view flags and applies them to `scene`'s camera.
     pub fn apply(&self, scene: &mut Scene) -> Result<()> {
         for &turn in &self.turn {

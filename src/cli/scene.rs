@@ -9,7 +9,7 @@ use isomarch::open::{Opened, unchanged};
 use isomarch::output::write_atomic;
 use isomarch::scene::Scene;
 
-use super::args::{MoleculeArgs, PlayArgs};
+use super::args::{MoleculeArgs, PlayArgs, ViewFlags};
 
 /// `isomarch scene`.
 #[derive(Args)]
@@ -27,6 +27,8 @@ pub struct SceneArgs {
     output: PathBuf,
     #[command(flatten)]
     molecule_args: MoleculeArgs,
+    #[command(flatten)]
+    view: ViewFlags,
 }
 
 /// `isomarch scene`: a molecule's scene file.
@@ -49,6 +51,15 @@ pub fn run(args: SceneArgs) -> Result<()> {
             eprintln!("{}", notes.summary);
             (text, m.source)
         }
+    };
+    // The view flags: the camera they make written into the file, so that
+    // rendering it makes the figure the same flags make of the molecule.
+    let mut scene = Scene::parse(&text, &source)?;
+    let text = if args.view.is_empty() {
+        text
+    } else {
+        args.view.apply(&mut scene)?;
+        isomarch::molecule::build::with_camera(&text, &scene.camera)
     };
     // The text must load as the molecule renders: check before writing.
     Scene::parse(&text, &source)?;

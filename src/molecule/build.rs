@@ -582,6 +582,37 @@ fn values_drawn(values: &Values, frame: usize, m: &Molecule, atoms: &[&Atom]) ->
     }
 }
 
+/// The scene text `text` (as [`framed_text`] writes it) with its camera's
+/// eye, target, up and field of view those of `camera` (the view flags
+/// of `isomarch scene`); the resolution and any path stay.
+pub fn with_camera(text: &str, camera: &crate::scene::Camera) -> String {
+    let mut out = String::with_capacity(text.len() + 64);
+    let mut in_camera = false;
+    for line in text.lines() {
+        if line == "    camera: (" {
+            in_camera = true;
+            let _ = writeln!(out, "{line}");
+            // Every digit (Rust's shortest round trip), so the file's camera
+            // is the one the flags make, bit for bit.
+            let exact = |p: DVec3| format!("({:?}, {:?}, {:?})", p.x, p.y, p.z);
+            let _ = writeln!(out, "        eye: {},", exact(camera.eye));
+            let _ = writeln!(out, "        target: {},", exact(camera.target));
+            let _ = writeln!(out, "        up: {},", exact(camera.up));
+            let _ = writeln!(out, "        fov_y: {:?},", camera.fov_y_deg);
+            continue;
+        }
+        if in_camera {
+            if line == "    )," {
+                in_camera = false;
+            } else if ["eye:", "target:", "up:", "fov_y:"].iter().any(|k| line.trim_start().starts_with(k)) {
+                continue;
+            }
+        }
+        let _ = writeln!(out, "{line}");
+    }
+    out
+}
+
 /// One atom as drawn: its centre, its radius (Å, `radius_scale` applied)
 /// and its colour (linear RGB; `None`: the scene's surface colour).
 #[derive(Clone, Copy, Debug, PartialEq)]
