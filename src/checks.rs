@@ -134,6 +134,29 @@ pub fn fov(deg: f64) -> Result<f64> {
     Ok(deg)
 }
 
+/// `--background`: a CSS colour name (`white`, `black`, `navy`), `#rrggbb`
+/// (both sRGB, as published) or three linear RGB numbers `r,g,b` in [0, 1];
+/// linear RGB, as the scene's `background` holds it.
+pub fn background(text: &str) -> Result<[f64; 3]> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() == 3
+        && let Ok(v) = parts.iter().map(|p| p.parse::<f64>()).collect::<Result<Vec<f64>, _>>()
+    {
+        if v.iter().any(|c| !(c.is_finite() && (0.0..=1.0).contains(c))) {
+            bail!("--background r,g,b takes linear values in [0, 1], got {text:?}");
+        }
+        return Ok([v[0], v[1], v[2]]);
+    }
+    let Ok(c) = csscolorparser::parse(text) else {
+        bail!("--background {text:?} is no colour: give a name (white, black, navy), #rrggbb, or linear r,g,b in [0, 1]");
+    };
+    let linear = |s: f32| {
+        let s = f64::from(s);
+        if s <= 0.04045 { s / 12.92 } else { ((s + 0.055) / 1.055).powf(2.4) }
+    };
+    Ok([linear(c.r), linear(c.g), linear(c.b)])
+}
+
 /// `--preview-ms` of `view`.
 pub fn preview(ms: f64) -> Result<Duration> {
     if !(ms.is_finite() && ms > 0.0) {

@@ -116,3 +116,63 @@ fn samples_are_checked_defaulted_from_the_scene_and_kept_in_batches() {
     isomarch(["render", p, "-o", &out("f_#.png"), "--frames", "0..1", "--samples", "4"]).ok();
     assert!(bytes("f_0.png") == bytes("flag4.png"), "--frames renders with other samples than a single frame");
 }
+
+/// `--transparent-background`: at the edge above (a straight vertical
+/// edge, where each of 16 samples stands in its own column), alpha is the
+/// pixel's analytic coverage within 1/16 (and half an 8-bit level); the
+/// covered part keeps the surface's colour (not blended with the
+/// background), the rest is fully transparent. The EXR holds the same
+/// coverage in A. `--background` colours the misses.
+#[test]
+fn a_transparent_background_holds_the_edges_coverage_in_alpha() {
+    let dir = scratch("aa-alpha");
+    let (w, h) = (40u32, 8u32);
+    let path = dir.join("edge.ron");
+    std::fs::write(&path, scene_text("quadratic-taylor")).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let field = isomarch::field::Field::new(&scene);
+    let (mut lo, mut hi) = (0.0, 1.9);
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        if field.value(DVec3::new(0.0, 0.0, mid)) > 0.0 { lo = mid } else { hi = mid }
+    }
+    let z = 0.5 * (lo + hi);
+    let half_w = (15f64.to_radians()).tan() * f64::from(w) / f64::from(h);
+    let edge = (EDGE / (10.0 - z) / half_w + 1.0) * f64::from(w) / 2.0;
+    let png = dir.join("alpha.png");
+    let exr = dir.join("alpha.exr");
+    for out in [&png, &exr] {
+        run_ok(&["render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--samples", "16", "--transparent-background"]);
+    }
+    let img = image::open(&png).unwrap();
+    assert_eq!(img.color(), image::ColorType::Rgba8, "an RGBA PNG");
+    let img = img.to_rgba8();
+    let a = exr_channel(&exr::prelude::read_all_flat_layers_from_file(&exr).unwrap(), "A");
+    let surface = isomarch::output::srgb(0.8);
+    let mut partial = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let coverage = (edge - f64::from(x)).clamp(0.0, 1.0);
+            let p = img.get_pixel(x, y).0;
+            let alpha = f64::from(p[3]) / 255.0;
+            assert!(
+                (alpha - coverage).abs() <= 1.0 / 16.0 + 0.5 / 255.0 + 1e-9,
+                "pixel ({x}, {y}): alpha {alpha} where the coverage is {coverage:.4}"
+            );
+            assert!((f64::from(a[(y * w + x) as usize]) - coverage).abs() <= 1.0 / 16.0 + 1e-6, "EXR pixel ({x}, {y})");
+            if p[3] > 0 {
+                assert!(p[..3].iter().all(|&c| c.abs_diff(surface) <= 1), "pixel ({x}, {y}): {p:?} is not the surface's colour {surface}");
+            } else {
+                assert_eq!(p, [0, 0, 0, 0]);
+            }
+            partial += usize::from(p[3] > 0 && p[3] < 255);
+        }
+    }
+    assert_eq!(partial, h as usize, "one column of partly covered pixels");
+    // --background: misses take it (sRGB as given), hits do not change.
+    let red = dir.join("red.png");
+    run_ok(&["render", path.to_str().unwrap(), "-o", red.to_str().unwrap(), "--background", "#ff8000"]);
+    let red = image::open(&red).unwrap().to_rgb8();
+    assert_eq!(red.get_pixel(w - 1, 0).0, [0xFF, 0x80, 0x00]);
+    assert_eq!(red.get_pixel(0, 0).0, [surface; 3]);
+}

@@ -281,12 +281,16 @@ pub struct ViewFlags {
     /// Vertical field of view, degrees (default: the scene's camera).
     #[arg(long, value_name = "DEG")]
     pub fov: Option<f64>,
+    /// The background: a colour name (white, black, navy), #rrggbb, or
+    /// linear r,g,b in [0, 1] (default: the scene's).
+    #[arg(long, value_name = "COLOR")]
+    pub background: Option<String>,
 }
 
 impl ViewFlags {
     /// Whether no view flag was given.
     pub fn is_empty(&self) -> bool {
-        self.turn.is_empty() && self.zoom.is_none() && self.fov.is_none()
+        self.turn.is_empty() && self.zoom.is_none() && self.fov.is_none() && self.background.is_none()
     }
 
     /// Checks the view flags and applies them to `scene`'s camera.
@@ -299,6 +303,9 @@ impl ViewFlags {
         }
         if let Some(deg) = self.fov {
             scene.camera.fov_y_deg = checks::fov(deg)?;
+        }
+        if let Some(text) = &self.background {
+            scene.background = checks::background(text)?.into();
         }
         Ok(())
     }

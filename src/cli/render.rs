@@ -68,6 +68,10 @@ pub struct RenderArgs {
     /// Image size as WxH, overriding the scene's camera.resolution.
     #[arg(long, value_parser = checks::parse_size)]
     size: Option<(u32, u32)>,
+    /// Write the background transparent: PNG with an alpha channel (EXR
+    /// with A), alpha the pixel's coverage, anti-aliasing included.
+    #[arg(long)]
+    transparent_background: bool,
     /// Draw the colour bar of a colouring by value (--color bfactor,
     /// occupancy, --color-values) with its range under the image.
     #[arg(long)]
@@ -165,6 +169,7 @@ impl TryFrom<RenderArgs> for Plan {
             aov_output: args.aov_output,
             stats: args.stats,
             legend,
+            transparent_background: args.transparent_background,
             samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
             ..RenderJob::new(scene, method, size, args.output, args.flags.gpu.timeout()?)
         };
@@ -197,6 +202,7 @@ impl Batch {
         let job = RenderJob {
             samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
             legend,
+            transparent_background: args.transparent_background,
             ..RenderJob::new(scene, method, size, output, args.flags.gpu.timeout()?)
         };
         isomarch::render::light::check_method(&job.scene, job.method)?;

@@ -583,9 +583,9 @@ fn values_drawn(values: &Values, frame: usize, m: &Molecule, atoms: &[&Atom]) ->
 }
 
 /// The scene text `text` (as [`framed_text`] writes it) with its camera's
-/// eye, target, up and field of view those of `camera` (the view flags
-/// of `isomarch scene`); the resolution and any path stay.
-pub fn with_camera(text: &str, camera: &crate::scene::Camera) -> String {
+/// eye, target, up and field of view those of `camera`, and `background`
+/// (the view flags of `isomarch scene`); the resolution and any path stay.
+pub fn with_view(text: &str, camera: &crate::scene::Camera, background: DVec3) -> String {
     let mut out = String::with_capacity(text.len() + 64);
     let mut in_camera = false;
     for line in text.lines() {
@@ -599,6 +599,10 @@ pub fn with_camera(text: &str, camera: &crate::scene::Camera) -> String {
             let _ = writeln!(out, "        target: {},", exact(camera.target));
             let _ = writeln!(out, "        up: {},", exact(camera.up));
             let _ = writeln!(out, "        fov_y: {:?},", camera.fov_y_deg);
+            continue;
+        }
+        if line.starts_with("    background: ") {
+            let _ = writeln!(out, "    background: ({:?}, {:?}, {:?}),", background.x, background.y, background.z);
             continue;
         }
         if in_camera {

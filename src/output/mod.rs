@@ -59,6 +59,23 @@ impl Frame {
         })
     }
 
+    /// The shaded image over a transparent background: alpha the pixel's
+    /// coverage (the fraction of its samples that hit a surface, which
+    /// `march_image` leaves in `color[3]`), the colour what the hits saw
+    /// (the background's share taken out of the average), sRGB, not
+    /// premultiplied.
+    pub fn shaded_rgba(&self, background: [f32; 3]) -> image::RgbaImage {
+        image::RgbaImage::from_fn(self.width, self.height, |x, y| {
+            let c = self.pixels[(y * self.width + x) as usize].color;
+            let a = c[3].clamp(0.0, 1.0);
+            if a <= 0.0 {
+                return image::Rgba([0, 0, 0, 0]);
+            }
+            let own = |k: usize| srgb((c[k] - (1.0 - a) * background[k]) / a);
+            image::Rgba([own(0), own(1), own(2), (a * 255.0).round() as u8])
+        })
+    }
+
     pub fn steps(&self) -> Vec<u32> {
         self.pixels.iter().map(|p| p.counts[0]).collect()
     }
@@ -118,16 +135,32 @@ impl FileFormat {
     }
 }
 
+/// How the shaded image is written besides its pixels.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Look<'a> {
+    /// A colour key drawn under it (PNG).
+    pub legend: Option<&'a ColorBar>,
+    /// A transparent background: the scene's background colour, taken out
+    /// of the pixels (RGBA PNG; EXR with A, premultiplied as EXR is).
+    pub transparent: Option<[f32; 3]>,
+}
+
 /// Encodes the frame's shaded image: 8-bit sRGB PNG, or the linear colour
-/// as 32-bit float OpenEXR (channels R, G, B) with any `aovs` beside it;
-/// a PNG with `legend` drawn under it.
-pub fn shaded_bytes(frame: &Frame, format: FileFormat, aovs: &[Aov], legend: Option<&ColorBar>) -> Result<Vec<u8>> {
+/// as 32-bit float OpenEXR (channels R, G, B) with any `aovs` beside it,
+/// as `look` says.
+pub fn shaded_bytes(frame: &Frame, format: FileFormat, aovs: &[Aov], look: Look) -> Result<Vec<u8>> {
     match format {
-        FileFormat::Png => match legend {
-            Some(bar) => png_bytes(&with_color_bar(&frame.shaded(), bar)),
-            None => png_bytes(&frame.shaded()),
+        FileFormat::Png => match (look.legend, look.transparent) {
+            (Some(_), Some(_)) => bail!("--legend and --transparent-background cannot be drawn together"),
+            (Some(bar), None) => png_bytes(&with_color_bar(&frame.shaded(), bar)),
+            (None, Some(bg)) => {
+                let mut out = Cursor::new(Vec::new());
+                frame.shaded_rgba(bg).write_to(&mut out, image::ImageFormat::Png).context("encoding PNG")?;
+                Ok(out.into_inner())
+            }
+            (None, None) => png_bytes(&frame.shaded()),
         },
-        FileFormat::Exr => exr_layers(frame, true, aovs),
+        FileFormat::Exr => exr_layers(frame, true, aovs, look.transparent),
         other => bail!("an image cannot be written as .{}", other.extension()),
     }
 }
@@ -159,18 +192,29 @@ pub fn exr_bytes(frame: &Frame, aovs: &[Aov]) -> Result<Vec<u8>> {
     if aovs.is_empty() {
         bail!("no AOV chosen");
     }
-    exr_layers(frame, false, aovs)
+    exr_layers(frame, false, aovs, None)
 }
 
 /// A 32-bit float OpenEXR file: the linear shaded colour (R, G, B) if
 /// `rgb`, then the AOVs.
-fn exr_layers(frame: &Frame, rgb: bool, aovs: &[Aov]) -> Result<Vec<u8>> {
+fn exr_layers(frame: &Frame, rgb: bool, aovs: &[Aov], transparent: Option<[f32; 3]>) -> Result<Vec<u8>> {
     use exr::prelude::*;
     let channel = |name: &str, f: &dyn Fn(&GpuResult) -> f32| AnyChannel::new(name, FlatSamples::F32(frame.pixels.iter().map(f).collect()));
     let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
     if rgb {
-        for (i, name) in ["R", "G", "B"].iter().enumerate() {
-            channels.push(channel(name, &|p| p.color[i]));
+        match transparent {
+            None => {
+                for (i, name) in ["R", "G", "B"].iter().enumerate() {
+                    channels.push(channel(name, &|p| p.color[i]));
+                }
+            }
+            // Premultiplied: what the hits add over nothing.
+            Some(bg) => {
+                for (i, name) in ["R", "G", "B"].iter().enumerate() {
+                    channels.push(channel(name, &|p| p.color[i] - (1.0 - p.color[3]) * bg[i]));
+                }
+                channels.push(channel("A", &|p| p.color[3]));
+            }
         }
     }
     for aov in aovs {

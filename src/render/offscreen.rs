@@ -11,6 +11,7 @@ use super::index::IndexStats;
 use super::rays::{camera_rays_through, subpixel};
 use super::{MarchOptions, Renderer};
 use crate::gpu::Context;
+use crate::layout::FLAG_HIT;
 use crate::method::Method;
 use crate::output::{self, Aov, FileFormat, Frame, MarchStats};
 use crate::scene::Scene;
@@ -34,6 +35,8 @@ pub struct RenderJob {
     pub samples: u32,
     /// A colour key drawn under the image (PNG only).
     pub legend: Option<output::ColorBar>,
+    /// Write the background transparent: alpha the pixels' coverage.
+    pub transparent_background: bool,
 }
 
 impl RenderJob {
@@ -50,6 +53,7 @@ impl RenderJob {
             output,
             heatmap: None,
             legend: None,
+            transparent_background: false,
             steps_max: None,
             aovs: vec![],
             aov_output: None,
@@ -74,8 +78,17 @@ impl RenderJob {
     /// flag) and says what will be written where: `-o` PNG or EXR,
     /// `--heatmap` PNG, `--aov-output` EXR (default: `-o` with `.exr`, the
     /// same file when `-o` is EXR), `--stats` JSON.
+    /// How the shaded image is written: its legend and background.
+    pub fn look(&self) -> output::Look<'_> {
+        let bg = self.scene.background;
+        output::Look { legend: self.legend.as_ref(), transparent: self.transparent_background.then_some([bg.x as f32, bg.y as f32, bg.z as f32]) }
+    }
+
     pub fn outputs(&self) -> Result<JobOutputs> {
         let image = FileFormat::of("-o", &self.output, FileFormat::IMAGE)?;
+        if self.legend.is_some() && self.transparent_background {
+            anyhow::bail!("--legend and --transparent-background cannot be drawn together: the bar needs a background");
+        }
         if self.legend.is_some() && image != FileFormat::Png {
             anyhow::bail!("--legend draws the colour bar on a PNG image; -o {} is not one", self.output.display());
         }
@@ -210,7 +223,8 @@ pub fn march_image(
     let n = samples.max(1);
     let mut image: Option<Frame> = None;
     // Only several samples need the sums and every ray's results.
-    let mut sums = if n > 1 { vec![[0f64; 3]; (width * height) as usize] } else { Vec::new() };
+    // Colour and coverage (the fraction of samples that hit a surface).
+    let mut sums = if n > 1 { vec![[0f64; 4]; (width * height) as usize] } else { Vec::new() };
     let mut marched = Vec::new();
     let mut gpu_ns = Some(0.0);
     let mut light = super::light::LightStats { gpu_ns: Some(0.0), ..Default::default() };
@@ -224,9 +238,10 @@ pub fn march_image(
         light.add(&out.light);
         let frame = Frame::from_results(width, height, &out.results, &pixels);
         for (sum, p) in sums.iter_mut().zip(&frame.pixels) {
-            for (s, c) in sum.iter_mut().zip(p.color) {
-                *s += f64::from(c);
+            for (s, c) in sum.iter_mut().zip(&p.color[..3]) {
+                *s += f64::from(*c);
             }
+            sum[3] += f64::from(u8::from(p.counts[3] & FLAG_HIT != 0));
         }
         if n > 1 {
             marched.extend(out.results.iter().zip(&pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| *r));
@@ -245,7 +260,11 @@ pub fn march_image(
         }
     }
     let mut image = image.unwrap_or_else(|| Frame::from_results(width, height, &[], &[]));
-    if n > 1 {
+    if n == 1 {
+        for p in &mut image.pixels {
+            p.color[3] = f32::from(u8::from(p.counts[3] & FLAG_HIT != 0));
+        }
+    } else {
         for (p, sum) in image.pixels.iter_mut().zip(&sums) {
             for (c, s) in p.color.iter_mut().zip(sum) {
                 *c = (s / f64::from(n)) as f32;
@@ -346,7 +365,7 @@ pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStat
         Some(path) if *path == job.output => (&job.aovs[..], None),
         other => (&[][..], other.as_ref()),
     };
-    let mut files = vec![(job.output.clone(), output::shaded_bytes(&frame, outputs.image, aovs_inside, job.legend.as_ref())?)];
+    let mut files = vec![(job.output.clone(), output::shaded_bytes(&frame, outputs.image, aovs_inside, job.look())?)];
     if let Some(path) = &job.heatmap {
         let img = output::heatmap_image(frame.width, frame.height, &frame.steps(), job.steps_max);
         files.push((path.clone(), output::png_bytes(&img)?));
