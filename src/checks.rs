@@ -134,6 +134,14 @@ pub fn fov(deg: f64) -> Result<f64> {
     Ok(deg)
 }
 
+/// `--ortho HEIGHT`: the view's height in scene units.
+pub fn ortho(height: f64) -> Result<f64> {
+    if !(height.is_finite() && height > 0.0) {
+        bail!("--ortho takes the view's height in scene units, a positive number, got {height}");
+    }
+    Ok(height)
+}
+
 /// `--background`: a CSS colour name (`white`, `black`, `navy`), `#rrggbb`
 /// (both sRGB, as published) or three linear RGB numbers `r,g,b` in [0, 1];
 /// linear RGB, as the scene's `background` holds it.

@@ -122,3 +122,63 @@ fn a_scene_written_with_view_flags_renders_as_the_flags_do() {
     assert_eq!(from_file, render(&pdb, &flags, "flags.png"), "the scene file's camera is not the flags'");
     assert_ne!(from_file, render(&pdb, &[], "plain.png"), "the flags changed nothing");
 }
+
+/// Orthographic projection in closed form: a sphere of radius ρ renders as
+/// a disc of ρ/h·H pixels (view height h, image height H) whatever the
+/// eye's distance, within a pixel; the scene file's `projection` is the
+/// flag's, byte for byte; on 1A8O's camera rays, `bench --camera` against
+/// the f64 reference on the same parallel rays: no miss, no false hit.
+#[test]
+fn an_orthographic_view_draws_a_sphere_its_size_at_any_distance() {
+    let dir = scratch("view-ortho");
+    let rho = 2.0 * (1.0 - 0.5f64.cbrt()).sqrt();
+    let ball = |d: f64, projection: &str| -> std::path::PathBuf {
+        let path = dir.join(format!("ball-{d}-{}.ron", projection.len()));
+        std::fs::write(
+            &path,
+            format!(
+                r#"Scene(
+    camera: (eye: (0.0, 0.0, {d:.1}), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96){projection}),
+    background: (0.0, 0.0, 0.0),
+    iso: 0.5,
+    marching: (method: "quadratic-taylor", min_step: 0.001),
+    groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))])],
+)"#
+            ),
+        )
+        .unwrap();
+        path
+    };
+    let radius = |png: &std::path::Path| -> f64 {
+        let img = image::open(png).unwrap().to_rgb8();
+        (img.pixels().filter(|p| p.0.iter().any(|&c| c > 0)).count() as f64 / std::f64::consts::PI).sqrt()
+    };
+    for (d, h) in [(12.0, 8.0), (100.0, 8.0), (12.0, 20.0), (3000.0, 20.0)] {
+        let png = dir.join("ortho.png");
+        isomarch(["render", ball(d, "").to_str().unwrap(), "-o", png.to_str().unwrap(), "--ortho", &h.to_string()]).ok();
+        let (measured, expected) = (radius(&png), rho / h * 96.0);
+        assert!((measured - expected).abs() < 1.0, "eye at {d}, height {h}: a disc of radius {measured:.2} pixels, expected {expected:.2}");
+    }
+    // The file's projection renders as the flag.
+    let (file, flag) = (dir.join("file.png"), dir.join("flag.png"));
+    isomarch(["render", ball(30.0, ", projection: Orthographic(height: 8.0)").to_str().unwrap(), "-o", file.to_str().unwrap()]).ok();
+    isomarch(["render", ball(30.0, "").to_str().unwrap(), "-o", flag.to_str().unwrap(), "--ortho", "8"]).ok();
+    assert_eq!(std::fs::read(&file).unwrap(), std::fs::read(&flag).unwrap());
+    // Without a height: the perspective view's height at the target.
+    isomarch(["render", ball(30.0, "").to_str().unwrap(), "-o", flag.to_str().unwrap(), "--ortho"]).ok();
+    let h = 2.0 * 30.0 * 15f64.to_radians().tan();
+    assert!((radius(&flag) - rho / h * 96.0).abs() < 1.0, "--ortho alone: {:.2} pixels", radius(&flag));
+    let err = isomarch(["render", ball(30.0, "").to_str().unwrap(), "-o", flag.to_str().unwrap(), "--ortho=0"]).fails_in_one_line();
+    assert!(err.contains("--ortho takes the view's height"), "{err}");
+    // The f64 reference on the same parallel rays.
+    let bench = dir.join("bench.json");
+    let pdb = repo_root().join("tests/data/molecules/1A8O.pdb");
+    isomarch(["bench", pdb.to_str().unwrap(), "--camera", "40x40", "--rays", "1600", "--ortho", "--methods", "quadratic-taylor,segment"])
+        .args(["--json", bench.to_str().unwrap()])
+        .ok();
+    let report = json(&bench);
+    assert!(report["reference_hit_rate"].as_f64().unwrap() > 0.3, "{report}");
+    for row in report["methods"].as_array().unwrap() {
+        assert_eq!((row["miss_rate"].as_f64(), row["false_hit_rate"].as_f64()), (Some(0.0), Some(0.0)), "{row}");
+    }
+}

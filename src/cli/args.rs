@@ -281,6 +281,11 @@ pub struct ViewFlags {
     /// Vertical field of view, degrees (default: the scene's camera).
     #[arg(long, value_name = "DEG")]
     pub fov: Option<f64>,
+    /// Orthographic projection: parallel rays, a view HEIGHT scene units
+    /// high (without a value: the height the perspective view has at the
+    /// target, so the target's plane keeps its framing).
+    #[arg(long, value_name = "HEIGHT", num_args = 0..=1)]
+    pub ortho: Option<Option<f64>>,
     /// The background: a colour name (white, black, navy), #rrggbb, or
     /// linear r,g,b in [0, 1] (default: the scene's).
     #[arg(long, value_name = "COLOR")]
@@ -290,7 +295,7 @@ pub struct ViewFlags {
 impl ViewFlags {
     /// Whether no view flag was given.
     pub fn is_empty(&self) -> bool {
-        self.turn.is_empty() && self.zoom.is_none() && self.fov.is_none() && self.background.is_none()
+        self.turn.is_empty() && self.zoom.is_none() && self.fov.is_none() && self.ortho.is_none() && self.background.is_none()
     }
 
     /// Checks the view flags and applies them to `scene`'s camera.
@@ -303,6 +308,14 @@ impl ViewFlags {
         }
         if let Some(deg) = self.fov {
             scene.camera.fov_y_deg = checks::fov(deg)?;
+        }
+        if let Some(height) = self.ortho {
+            let c = &scene.camera;
+            let height = match height {
+                Some(h) => checks::ortho(h)?,
+                None => 2.0 * (c.target - c.eye).length() * (0.5 * c.fov_y_deg.to_radians()).tan(),
+            };
+            scene.camera.projection = isomarch::scene::Projection::Orthographic { height };
         }
         if let Some(text) = &self.background {
             scene.background = checks::background(text)?.into();

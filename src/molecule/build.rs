@@ -599,6 +599,9 @@ pub fn with_view(text: &str, camera: &crate::scene::Camera, background: DVec3) -
             let _ = writeln!(out, "        target: {},", exact(camera.target));
             let _ = writeln!(out, "        up: {},", exact(camera.up));
             let _ = writeln!(out, "        fov_y: {:?},", camera.fov_y_deg);
+            if let crate::scene::Projection::Orthographic { height } = camera.projection {
+                let _ = writeln!(out, "        projection: Orthographic(height: {height:?}),");
+            }
             continue;
         }
         if line.starts_with("    background: ") {
@@ -608,7 +611,7 @@ pub fn with_view(text: &str, camera: &crate::scene::Camera, background: DVec3) -
         if in_camera {
             if line == "    )," {
                 in_camera = false;
-            } else if ["eye:", "target:", "up:", "fov_y:"].iter().any(|k| line.trim_start().starts_with(k)) {
+            } else if ["eye:", "target:", "up:", "fov_y:", "projection:"].iter().any(|k| line.trim_start().starts_with(k)) {
                 continue;
             }
         }

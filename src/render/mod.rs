@@ -928,7 +928,9 @@ impl Renderer {
     /// camera rays marched by `method` with `options` would use them.
     /// Returns whether they did.
     pub fn prepare_camera(&mut self, method: Method, options: &MarchOptions, camera: &scene::Camera, width: u32, height: u32) -> Result<bool> {
-        if !self.tiles_apply(method, options) {
+        // The lists bin what each tile's rays meet through the eye: a
+        // perspective camera's only (an orthographic one walks the grid).
+        if !self.tiles_apply(method, options) || camera.projection != scene::Projection::Perspective {
             return Ok(false);
         }
         let frame = (camera.clone(), width, height);

@@ -5,7 +5,7 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
 use crate::layout::GpuRay;
-use crate::scene::{Aabb, Camera};
+use crate::scene::{Aabb, Camera, Projection};
 
 /// Camera rays are ordered in 8x8 pixel tiles, one 64-wide workgroup each,
 /// so that neighbouring lanes march neighbouring pixels.
@@ -125,7 +125,13 @@ pub fn camera_rays_through(cam: &Camera, width: u32, height: u32, bounds: &Aabb,
     let forward = (cam.target - cam.eye).normalize();
     let right = forward.cross(cam.up).normalize();
     let up = right.cross(forward);
-    let half_h = (0.5 * cam.fov_y_deg.to_radians()).tan();
+    // Perspective: the image plane at distance 1; orthographic: the plane
+    // through the eye, `height` high, every ray along `forward`.
+    let ortho = match cam.projection {
+        Projection::Perspective => None,
+        Projection::Orthographic { height } => Some(height),
+    };
+    let half_h = ortho.map_or_else(|| (0.5 * cam.fov_y_deg.to_radians()).tan(), |h| 0.5 * h);
     let half_w = half_h * f64::from(width) / f64::from(height);
     let tiles_x = width.div_ceil(PIXEL_TILE);
     let tiles_y = height.div_ceil(PIXEL_TILE);
@@ -145,8 +151,10 @@ pub fn camera_rays_through(cam: &Camera, width: u32, height: u32, bounds: &Aabb,
                     let (ox, oy) = at(y * width + x);
                     let sx = (2.0 * (f64::from(x) + ox) / f64::from(width) - 1.0) * half_w;
                     let sy = (1.0 - 2.0 * (f64::from(y) + oy) / f64::from(height)) * half_h;
-                    let d = (forward + sx * right + sy * up).normalize();
-                    rays.push(clipped_ray(cam.eye, d, bounds));
+                    rays.push(match ortho {
+                        None => clipped_ray(cam.eye, (forward + sx * right + sy * up).normalize(), bounds),
+                        Some(_) => clipped_ray(cam.eye + sx * right + sy * up, forward, bounds),
+                    });
                     pixels.push(Some(y * width + x));
                 }
             }

@@ -159,6 +159,20 @@ pub struct CameraFile {
     /// How the eye moves over scene time; absent: it stays.
     #[serde(default)]
     pub path: Option<CameraPathFile>,
+    /// `Perspective` (the default) or `Orthographic(height: H)`: parallel
+    /// rays, a view `H` scene units high.
+    #[serde(default)]
+    pub projection: ProjectionFile,
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize)]
+#[serde(rename = "Projection", deny_unknown_fields)]
+pub enum ProjectionFile {
+    #[default]
+    Perspective,
+    Orthographic {
+        height: f64,
+    },
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

@@ -39,10 +39,23 @@ pub struct Camera {
     pub target: DVec3,
     pub up: DVec3,
     pub fov_y_deg: f64,
+    /// Perspective (through the eye, `fov_y_deg`) or orthographic.
+    pub projection: Projection,
     pub width: u32,
     pub height: u32,
     /// Anti-aliasing: rays per pixel (1: through its centre).
     pub samples: u32,
+}
+
+/// How a camera projects.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Projection {
+    /// Rays from the eye through the image, `fov_y_deg` high.
+    #[default]
+    Perspective,
+    /// Rays parallel to the view direction from the plane through the eye,
+    /// a view `height` scene units high (the field of view is not used).
+    Orthographic { height: f64 },
 }
 
 /// The largest image side, in pixels: a scene's `camera.resolution`,
@@ -447,6 +460,10 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
     if !(fov > 0.0 && fov < 180.0) {
         return Err(c.err("camera.fov_y", format!("must be in (0, 180) degrees, got {fov}")));
     }
+    let projection = match cam.projection {
+        file::ProjectionFile::Perspective => Projection::Perspective,
+        file::ProjectionFile::Orthographic { height } => Projection::Orthographic { height: c.positive("camera.projection.height", height)? },
+    };
     let (w, h) = cam.resolution;
     if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
         return Err(c.err("camera.resolution", format!("must be 1..={MAX_SIDE} pixels each way, got ({w}, {h})")));
@@ -642,7 +659,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
     }
     Ok(Scene {
         source: name.to_string(),
-        camera: Camera { eye, target, up, fov_y_deg: fov, width: w, height: h, samples: cam.samples },
+        camera: Camera { eye, target, up, fov_y_deg: fov, projection, width: w, height: h, samples: cam.samples },
         background: c.color("background", f.background)?,
         ambient: c.color("ambient", f.ambient)?,
         surface,

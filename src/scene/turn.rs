@@ -14,7 +14,7 @@ use std::str::FromStr;
 
 use glam::{DQuat, DVec3};
 
-use super::Camera;
+use super::{Camera, Projection};
 
 /// An axis of the view.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -87,7 +87,13 @@ impl Camera {
 
     /// The eye `factor` times closer to the target.
     pub fn zoomed(&self, factor: f64) -> Camera {
-        Camera { eye: self.target + (self.eye - self.target) / factor, ..self.clone() }
+        // An orthographic view shows the same at any distance: its
+        // height shrinks instead.
+        let projection = match self.projection {
+            Projection::Orthographic { height } => Projection::Orthographic { height: height / factor },
+            p => p,
+        };
+        Camera { eye: self.target + (self.eye - self.target) / factor, projection, ..self.clone() }
     }
 }
 
@@ -99,7 +105,16 @@ mod tests {
     use crate::scene::Camera;
 
     fn camera() -> Camera {
-        Camera { eye: DVec3::new(0.0, 0.0, 10.0), target: DVec3::ZERO, up: DVec3::Y, fov_y_deg: 30.0, width: 8, height: 8, samples: 1 }
+        Camera {
+            eye: DVec3::new(0.0, 0.0, 10.0),
+            target: DVec3::ZERO,
+            up: DVec3::Y,
+            fov_y_deg: 30.0,
+            projection: Projection::Perspective,
+            width: 8,
+            height: 8,
+            samples: 1,
+        }
     }
 
     fn close(a: DVec3, b: DVec3) -> bool {

@@ -269,7 +269,16 @@ pub fn gaussian(center: DVec3, r: f64, s: f64, iso: f64) -> Primitive {
 pub fn scene(groups: Vec<Vec<Primitive>>, iso: f64, method: Method, min_step: f64) -> Scene {
     let mut s = Scene {
         source: "test scene".into(),
-        camera: Camera { eye: DVec3::new(0.0, 0.0, 10.0), target: DVec3::ZERO, up: DVec3::Y, fov_y_deg: 40.0, width: 64, height: 64, samples: 1 },
+        camera: Camera {
+            eye: DVec3::new(0.0, 0.0, 10.0),
+            target: DVec3::ZERO,
+            up: DVec3::Y,
+            fov_y_deg: 40.0,
+            projection: Default::default(),
+            width: 64,
+            height: 64,
+            samples: 1,
+        },
         background: DVec3::splat(0.05),
         ambient: DVec3::splat(0.1),
         surface: DVec3::new(0.8, 0.5, 0.3),
