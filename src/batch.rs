@@ -361,7 +361,8 @@ pub fn run(
             renderer.set_scene(&shown)?;
             index_built = true;
         }
-        let (image, stats) = crate::render::offscreen::march_image(&mut renderer, job.method, options, &shown, (job.width, job.height), job.samples)?;
+        let (image, stats) =
+            crate::render::offscreen::march_image(&mut renderer, job.method, options, &shown, (job.width, job.height), job.samples, job.depth_cue)?;
         write_atomic(&path, &shaded_bytes(&image, FileFormat::of("-o", &path, FileFormat::IMAGE)?, &[], job.look())?)?;
         // GPU time of this frame's index build: 0 where a static scene
         // reuses the first frame's, empty without an index (or without

@@ -10,7 +10,7 @@ use isomarch::checks;
 use isomarch::molecule::playback::Stager;
 use isomarch::open::Input;
 use isomarch::output::{Aov, ColorBar, FileFormat};
-use isomarch::render::offscreen::{RenderJob, render_to_files};
+use isomarch::render::offscreen::{DepthCue, RenderJob, render_to_files};
 use isomarch::scene::Scene;
 
 use super::args::{GpuArgs, PlayArgs, SceneFlags};
@@ -68,6 +68,11 @@ pub struct RenderArgs {
     /// Image size as WxH, overriding the scene's camera.resolution.
     #[arg(long, value_parser = checks::parse_size)]
     size: Option<(u32, u32)>,
+    /// Depth cueing: blend hits toward the background from START to END,
+    /// fractions of the scene's depth range along the view [default
+    /// without a value: 0.5:1, ChimeraX's].
+    #[arg(long, value_name = "START:END", num_args = 0..=1, default_missing_value = "0.5:1")]
+    depth_cue: Option<String>,
     /// Write the background transparent: PNG with an alpha channel (EXR
     /// with A), alpha the pixel's coverage, anti-aliasing included.
     #[arg(long)]
@@ -170,6 +175,7 @@ impl TryFrom<RenderArgs> for Plan {
             stats: args.stats,
             legend,
             transparent_background: args.transparent_background,
+            depth_cue: args.depth_cue.as_deref().map(DepthCue::parse).transpose()?,
             samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
             ..RenderJob::new(scene, method, size, args.output, args.flags.gpu.timeout()?)
         };
@@ -203,6 +209,7 @@ impl Batch {
             samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
             legend,
             transparent_background: args.transparent_background,
+            depth_cue: args.depth_cue.as_deref().map(DepthCue::parse).transpose()?,
             ..RenderJob::new(scene, method, size, output, args.flags.gpu.timeout()?)
         };
         isomarch::render::light::check_method(&job.scene, job.method)?;

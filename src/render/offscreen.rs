@@ -37,6 +37,57 @@ pub struct RenderJob {
     pub legend: Option<output::ColorBar>,
     /// Write the background transparent: alpha the pixels' coverage.
     pub transparent_background: bool,
+    /// Blend hits toward the background with depth.
+    pub depth_cue: Option<DepthCue>,
+}
+
+/// Depth cueing (ChimeraX's `lighting depthCue`): a hit's colour is blended
+/// toward the background linearly from no blend at `start` to all
+/// background at `end`, fractions of the scene's depth range, the span of
+/// its bounds along the view direction (from the eye's plane on).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthCue {
+    pub start: f64,
+    pub end: f64,
+}
+
+impl DepthCue {
+    /// `START:END`, fractions with 0 <= START < END <= 1 (ChimeraX's
+    /// defaults are 0.5 and 1).
+    pub fn parse(text: &str) -> Result<DepthCue> {
+        let bad = || anyhow::anyhow!("--depth-cue takes START:END, fractions of the scene's depth range with 0 <= START < END <= 1, got {text:?}");
+        let (a, b) = text.split_once(':').ok_or_else(bad)?;
+        let (start, end): (f64, f64) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
+        if !(start >= 0.0 && start < end && end <= 1.0) {
+            return Err(bad());
+        }
+        Ok(DepthCue { start, end })
+    }
+
+    /// The scene's depth range seen by `camera`: the least and greatest
+    /// distance of the bounds' corners along the view direction, the
+    /// nearer one no closer than the eye's plane.
+    pub fn range(bounds: &crate::scene::Aabb, camera: &crate::scene::Camera) -> (f64, f64) {
+        let forward = (camera.target - camera.eye).normalize();
+        let (mut near, mut far) = (f64::INFINITY, f64::NEG_INFINITY);
+        for k in 0..8 {
+            let c = glam::DVec3::new(
+                if k & 1 == 0 { bounds.min.x } else { bounds.max.x },
+                if k & 2 == 0 { bounds.min.y } else { bounds.max.y },
+                if k & 4 == 0 { bounds.min.z } else { bounds.max.z },
+            );
+            let z = (c - camera.eye).dot(forward);
+            near = near.min(z);
+            far = far.max(z);
+        }
+        (near.max(0.0), far.max(0.0))
+    }
+
+    /// The background's share at view depth `z` in the range `(near, far)`.
+    pub fn blend(&self, z: f64, (near, far): (f64, f64)) -> f64 {
+        let (a, b) = (near + self.start * (far - near), near + self.end * (far - near));
+        if b > a { ((z - a) / (b - a)).clamp(0.0, 1.0) } else { f64::from(u8::from(z >= b)) }
+    }
 }
 
 impl RenderJob {
@@ -54,6 +105,7 @@ impl RenderJob {
             heatmap: None,
             legend: None,
             transparent_background: false,
+            depth_cue: None,
             steps_max: None,
             aovs: vec![],
             aov_output: None,
@@ -188,7 +240,7 @@ pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<Frame
     let mut renderer = Renderer::for_camera(ctx, &scene, job.timeout)?;
     let options = MarchOptions::for_scene(&scene);
     let tiled = renderer.prepare_camera(job.method, &options, &scene.camera, job.width, job.height)?;
-    let (frame, march) = march_image(&mut renderer, job.method, options, &scene, (job.width, job.height), job.samples)?;
+    let (frame, march) = march_image(&mut renderer, job.method, options, &scene, (job.width, job.height), job.samples, job.depth_cue)?;
     let memory = Memory::now(ctx);
     let tiles = renderer.tile_stats().filter(|_| tiled);
     Ok(FrameReport { frame, march, index: renderer.index_stats(), tiles, memory, pipeline_ms: renderer.pipeline_ms() })
@@ -219,7 +271,10 @@ pub fn march_image(
     scene: &Scene,
     (width, height): (u32, u32),
     samples: u32,
+    depth_cue: Option<DepthCue>,
 ) -> Result<(Frame, MarchStats)> {
+    let forward = (scene.camera.target - scene.camera.eye).normalize();
+    let depths = DepthCue::range(&scene.bounds, &scene.camera);
     let n = samples.max(1);
     let mut image: Option<Frame> = None;
     // Only several samples need the sums and every ray's results.
@@ -233,7 +288,24 @@ pub fn march_image(
     renderer.prepare_camera(method, &options, &scene.camera, width, height)?;
     for s in 0..n {
         let (rays, pixels) = camera_rays_through(&scene.camera, width, height, &scene.bounds, |p| subpixel(p, s, n, SAMPLE_SEED));
-        let out = march_camera_frame(renderer, method, options, &rays, 0)?;
+        let mut out = march_camera_frame(renderer, method, options, &rays, 0)?;
+        // Depth cueing, per sample (so anti-aliased edges blend as their
+        // samples do), after the lights: toward the background with the
+        // hit's depth along the view direction.
+        if let Some(cue) = depth_cue {
+            for (r, ray) in out.results.iter_mut().zip(&rays) {
+                if r.counts[3] & FLAG_HIT == 0 {
+                    continue;
+                }
+                let ray = super::rays::Ray::from_gpu(ray);
+                let z = (ray.o + f64::from(r.hit[3]) * ray.d - scene.camera.eye).dot(forward);
+                let f = cue.blend(z, depths);
+                let bg = scene.background.to_array();
+                for k in 0..3 {
+                    r.color[k] = (f64::from(r.color[k]) * (1.0 - f) + bg[k] * f) as f32;
+                }
+            }
+        }
         gpu_ns = gpu_ns.zip(out.gpu_ns).map(|(a, b)| a + b);
         light.add(&out.light);
         let frame = Frame::from_results(width, height, &out.results, &pixels);
