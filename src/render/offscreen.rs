@@ -301,8 +301,8 @@ pub fn march_image(
                 let z = (ray.o + f64::from(r.hit[3]) * ray.d - scene.camera.eye).dot(forward);
                 let f = cue.blend(z, depths);
                 let bg = scene.background.to_array();
-                for k in 0..3 {
-                    r.color[k] = (f64::from(r.color[k]) * (1.0 - f) + bg[k] * f) as f32;
+                for (c, b) in r.color.iter_mut().zip(bg) {
+                    *c = (f64::from(*c) * (1.0 - f) + b * f) as f32;
                 }
             }
         }

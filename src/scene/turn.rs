@@ -102,7 +102,7 @@ mod tests {
     use glam::DVec3;
 
     use super::{Turn, ViewAxis};
-    use crate::scene::Camera;
+    use crate::scene::{Camera, Projection};
 
     fn camera() -> Camera {
         Camera {
