@@ -362,7 +362,7 @@ pub fn run(
             index_built = true;
         }
         let (image, stats) =
-            crate::render::offscreen::march_image(&mut renderer, job.method, options, &shown, (job.width, job.height), job.samples, job.depth_cue)?;
+            crate::render::offscreen::march_image(&mut renderer, job.method, options, &shown, (job.width, job.height), job.samples, job.effects)?;
         write_atomic(&path, &shaded_bytes(&image, FileFormat::of("-o", &path, FileFormat::IMAGE)?, &[], job.look())?)?;
         // GPU time of this frame's index build: 0 where a static scene
         // reuses the first frame's, empty without an index (or without

@@ -176,3 +176,31 @@ fn a_transparent_background_holds_the_edges_coverage_in_alpha() {
     assert_eq!(red.get_pixel(w - 1, 0).0, [0xFF, 0x80, 0x00]);
     assert_eq!(red.get_pixel(0, 0).0, [surface; 3]);
 }
+
+/// `--outline 3` on the edge above (one sample: a pixel hits where its
+/// centre is left of the edge): the three hit columns next to the edge
+/// take the outline's colour, the rest keep the surface's; with 16
+/// samples the edge's own column is partly outlined, partly background.
+#[test]
+fn an_outline_is_drawn_its_width_inside_the_surfaces_edge() {
+    let dir = scratch("aa-outline");
+    let (w, h) = (40u32, 8u32);
+    let path = dir.join("edge.ron");
+    std::fs::write(&path, scene_text("quadratic-taylor")).unwrap();
+    let png = dir.join("outline.png");
+    run_ok(&["render", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "--outline", "3", "--outline-color", "#00ff00"]);
+    let img = image::open(&png).unwrap().to_rgb8();
+    let surface = isomarch::output::srgb(0.8);
+    let hits: Vec<u32> = (0..w).filter(|&x| img.get_pixel(x, 0).0 != [isomarch::output::srgb(0.1); 3]).collect();
+    let last = *hits.last().unwrap();
+    for y in 0..h {
+        for &x in &hits {
+            let want = if x + 3 > last { [0, 255, 0] } else { [surface; 3] };
+            assert_eq!(img.get_pixel(x, y).0, want, "pixel ({x}, {y}), the last hit column {last}");
+        }
+    }
+    let err = isomarch(["render", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "--outline", "0"]).fails_in_one_line();
+    assert!(err.contains("--outline takes a width of 1 to 64 pixels"), "{err}");
+    let err = isomarch(["render", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "--outline-jump", "0.1"]).fails_in_one_line();
+    assert!(err.contains("--outline-jump and") || err.contains("which was not given"), "{err}");
+}

@@ -10,7 +10,7 @@ use isomarch::checks;
 use isomarch::molecule::playback::Stager;
 use isomarch::open::Input;
 use isomarch::output::{Aov, ColorBar, FileFormat};
-use isomarch::render::offscreen::{DepthCue, RenderJob, render_to_files};
+use isomarch::render::offscreen::{DepthCue, Effects, Outline, RenderJob, render_to_files};
 use isomarch::scene::Scene;
 
 use super::args::{GpuArgs, PlayArgs, SceneFlags};
@@ -73,6 +73,18 @@ pub struct RenderArgs {
     /// without a value: 0.5:1, ChimeraX's].
     #[arg(long, value_name = "START:END", num_args = 0..=1, default_missing_value = "0.5:1")]
     depth_cue: Option<String>,
+    /// Outlines: a line WIDTH pixels wide where the depth between nearby
+    /// pixels jumps (and where the surface meets the background)
+    /// [default without a value: 1].
+    #[arg(long, value_name = "WIDTH", num_args = 0..=1, default_missing_value = "1")]
+    outline: Option<u32>,
+    /// The outlines' colour: a name, #rrggbb or linear r,g,b [default: black].
+    #[arg(long, value_name = "COLOR")]
+    outline_color: Option<String>,
+    /// The depth jump that draws an outline, a fraction of the scene's
+    /// depth range [default: 0.03, ChimeraX's depthJump].
+    #[arg(long, value_name = "F")]
+    outline_jump: Option<f64>,
     /// Write the background transparent: PNG with an alpha channel (EXR
     /// with A), alpha the pixel's coverage, anti-aliasing included.
     #[arg(long)]
@@ -167,6 +179,7 @@ impl TryFrom<RenderArgs> for Plan {
         let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
         let scene = scene.at_time(checks::time(args.batch.time)?);
         let method = scene.marching.method;
+        let effects = effects(&args)?;
         let job = RenderJob {
             heatmap: args.heatmap,
             steps_max: args.steps_max,
@@ -175,7 +188,7 @@ impl TryFrom<RenderArgs> for Plan {
             stats: args.stats,
             legend,
             transparent_background: args.transparent_background,
-            depth_cue: args.depth_cue.as_deref().map(DepthCue::parse).transpose()?,
+            effects,
             samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
             ..RenderJob::new(scene, method, size, args.output, args.flags.gpu.timeout()?)
         };
@@ -189,6 +202,7 @@ impl TryFrom<RenderArgs> for Plan {
 impl Batch {
     fn new(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Scene, stager: Option<Stager>, legend: Option<ColorBar>) -> Result<Batch> {
         let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
+        let effects = effects(&args)?;
         let RenderArgs { output, batch, .. } = args;
         if args.heatmap.is_some() || !args.aov.is_empty() || args.stats.is_some() || args.aov_output.is_some() || args.steps_max.is_some() {
             bail!(
@@ -209,7 +223,7 @@ impl Batch {
             samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
             legend,
             transparent_background: args.transparent_background,
-            depth_cue: args.depth_cue.as_deref().map(DepthCue::parse).transpose()?,
+            effects,
             ..RenderJob::new(scene, method, size, output, args.flags.gpu.timeout()?)
         };
         isomarch::render::light::check_method(&job.scene, job.method)?;
@@ -249,6 +263,29 @@ impl Batch {
         }
         Ok(())
     }
+}
+
+/// Depth cueing and outlines from the flags, checked.
+fn effects(args: &RenderArgs) -> Result<Effects> {
+    let depth_cue = args.depth_cue.as_deref().map(DepthCue::parse).transpose()?;
+    if args.outline.is_none() && (args.outline_color.is_some() || args.outline_jump.is_some()) {
+        bail!("--outline-color and --outline-jump shape the outlines of --outline, which was not given");
+    }
+    let outline = match args.outline {
+        None => None,
+        Some(width) => {
+            if !(1..=64).contains(&width) {
+                bail!("--outline takes a width of 1 to 64 pixels, got {width}");
+            }
+            let jump = args.outline_jump.unwrap_or(0.03);
+            if !(jump.is_finite() && jump > 0.0 && jump < 1.0) {
+                bail!("--outline-jump is a fraction of the scene's depth range, in (0, 1), got {jump}");
+            }
+            let color = args.outline_color.as_deref().map(checks::background).transpose()?.unwrap_or([0.0; 3]);
+            Some(Outline { width, color, jump })
+        }
+    };
+    Ok(Effects { depth_cue, outline })
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {

@@ -37,8 +37,52 @@ pub struct RenderJob {
     pub legend: Option<output::ColorBar>,
     /// Write the background transparent: alpha the pixels' coverage.
     pub transparent_background: bool,
-    /// Blend hits toward the background with depth.
+    /// Depth cueing and outlines, drawn on each sample.
+    pub effects: Effects,
+}
+
+/// What is drawn on each sample's pixels after the march and the lights:
+/// depth cueing, then outlines.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Effects {
     pub depth_cue: Option<DepthCue>,
+    pub outline: Option<Outline>,
+}
+
+/// Outlines (ChimeraX's `graphics silhouettes`): a hit pixel is drawn in
+/// `color` when a pixel at most `width` pixels away (in x and in y) is
+/// farther by more than `jump` times the scene's depth range, or missed
+/// (a ray that leaves the surface): a line `width` pixels wide on the
+/// near side of every jump in depth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Outline {
+    pub width: u32,
+    /// Linear RGB.
+    pub color: [f64; 3],
+    pub jump: f64,
+}
+
+impl Outline {
+    /// Which pixels of a `w` x `h` view-depth map (row-major, infinite
+    /// where the ray missed) the outline covers, the depth range being
+    /// `range` long.
+    pub fn mask(&self, depth: &[f64], w: u32, h: u32, range: f64) -> Vec<bool> {
+        let threshold = self.jump * range;
+        let r = self.width as i64;
+        let at = |x: i64, y: i64| depth[(y * i64::from(w) + x) as usize];
+        let mut out = vec![false; depth.len()];
+        for y in 0..i64::from(h) {
+            for x in 0..i64::from(w) {
+                let z = at(x, y);
+                if !z.is_finite() {
+                    continue;
+                }
+                let (x0, x1, y0, y1) = ((x - r).max(0), (x + r).min(i64::from(w) - 1), (y - r).max(0), (y + r).min(i64::from(h) - 1));
+                out[(y * i64::from(w) + x) as usize] = (y0..=y1).any(|v| (x0..=x1).any(|u| at(u, v) - z > threshold));
+            }
+        }
+        out
+    }
 }
 
 /// Depth cueing (ChimeraX's `lighting depthCue`): a hit's colour is blended
@@ -105,7 +149,7 @@ impl RenderJob {
             heatmap: None,
             legend: None,
             transparent_background: false,
-            depth_cue: None,
+            effects: Effects::default(),
             steps_max: None,
             aovs: vec![],
             aov_output: None,
@@ -240,7 +284,7 @@ pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<Frame
     let mut renderer = Renderer::for_camera(ctx, &scene, job.timeout)?;
     let options = MarchOptions::for_scene(&scene);
     let tiled = renderer.prepare_camera(job.method, &options, &scene.camera, job.width, job.height)?;
-    let (frame, march) = march_image(&mut renderer, job.method, options, &scene, (job.width, job.height), job.samples, job.depth_cue)?;
+    let (frame, march) = march_image(&mut renderer, job.method, options, &scene, (job.width, job.height), job.samples, job.effects)?;
     let memory = Memory::now(ctx);
     let tiles = renderer.tile_stats().filter(|_| tiled);
     Ok(FrameReport { frame, march, index: renderer.index_stats(), tiles, memory, pipeline_ms: renderer.pipeline_ms() })
@@ -271,8 +315,9 @@ pub fn march_image(
     scene: &Scene,
     (width, height): (u32, u32),
     samples: u32,
-    depth_cue: Option<DepthCue>,
+    effects: Effects,
 ) -> Result<(Frame, MarchStats)> {
+    let Effects { depth_cue, outline } = effects;
     let forward = (scene.camera.target - scene.camera.eye).normalize();
     let depths = DepthCue::range(&scene.bounds, &scene.camera);
     let n = samples.max(1);
@@ -308,7 +353,24 @@ pub fn march_image(
         }
         gpu_ns = gpu_ns.zip(out.gpu_ns).map(|(a, b)| a + b);
         light.add(&out.light);
-        let frame = Frame::from_results(width, height, &out.results, &pixels);
+        let mut frame = Frame::from_results(width, height, &out.results, &pixels);
+        if let Some(outline) = outline {
+            // View depth per pixel, from each ray's hit.
+            let mut depth = vec![f64::INFINITY; (width * height) as usize];
+            for ((r, ray), p) in out.results.iter().zip(&rays).zip(&pixels) {
+                if let (Some(p), true) = (p, r.counts[3] & FLAG_HIT != 0) {
+                    let ray = super::rays::Ray::from_gpu(ray);
+                    depth[*p as usize] = (ray.o + f64::from(r.hit[3]) * ray.d - scene.camera.eye).dot(forward);
+                }
+            }
+            for (px, on) in frame.pixels.iter_mut().zip(outline.mask(&depth, width, height, depths.1 - depths.0)) {
+                if on {
+                    for (c, o) in px.color.iter_mut().zip(outline.color) {
+                        *c = o as f32;
+                    }
+                }
+            }
+        }
         for (sum, p) in sums.iter_mut().zip(&frame.pixels) {
             for (s, c) in sum.iter_mut().zip(&p.color[..3]) {
                 *s += f64::from(*c);
@@ -452,4 +514,32 @@ pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStat
         output::write_atomic(&path, &bytes)?;
     }
     Ok(stats)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two planes seen face on, the left half of a 12x4 view at depth 10,
+    /// the right half at 10 + jump: an outline of width w covers the w
+    /// columns of the near plane next to the jump when the jump is above
+    /// the threshold (3% of a depth range of 100), and nothing below it.
+    #[test]
+    fn an_outline_follows_depth_jumps_above_the_threshold_at_its_width() {
+        let (w, h) = (12u32, 4u32);
+        let planes = |jump: f64| -> Vec<f64> { (0..w * h).map(|i| if i % w < 6 { 10.0 } else { 10.0 + jump }).collect() };
+        for width in [1u32, 2, 3] {
+            let outline = Outline { width, color: [0.0; 3], jump: 0.03 };
+            let above = outline.mask(&planes(3.5), w, h, 100.0);
+            let columns: Vec<u32> = (0..w).filter(|&x| above[x as usize]).collect();
+            assert_eq!(columns, (6 - width..6).collect::<Vec<_>>(), "width {width}: the line's columns");
+            assert!((0..h).all(|y| (0..w).all(|x| above[(y * w + x) as usize] == above[x as usize])), "every row alike");
+            assert!(!outline.mask(&planes(2.5), w, h, 100.0).contains(&true), "width {width}: a jump below the threshold drew a line");
+        }
+        // A miss is a jump of any size: the surface's edge.
+        let mut edge = planes(0.0);
+        edge.iter_mut().enumerate().filter(|(i, _)| *i as u32 % w >= 6).for_each(|(_, z)| *z = f64::INFINITY);
+        let mask = Outline { width: 2, color: [0.0; 3], jump: 0.5 }.mask(&edge, w, h, 100.0);
+        assert_eq!((0..w).filter(|&x| mask[x as usize]).collect::<Vec<_>>(), [4, 5]);
+    }
 }
