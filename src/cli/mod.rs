@@ -40,6 +40,7 @@ pub struct Cli {
 }
 
 #[derive(Subcommand)]
+#[allow(clippy::large_enum_variant)] // parsed once per run
 enum Command {
     /// Render a scene offscreen to PNG, with optional heatmap, AOVs and statistics.
     Render(render::RenderArgs),
