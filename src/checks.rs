@@ -142,6 +142,27 @@ pub fn ortho(height: f64) -> Result<f64> {
     Ok(height)
 }
 
+/// `--clip near:D,far:D` (either or both): distances from the eye's plane.
+pub fn clip(text: &str) -> Result<(Option<f64>, Option<f64>)> {
+    let bad = || anyhow::anyhow!("--clip takes near:D, far:D or near:D,far:D (distances along the view), got {text:?}");
+    let (mut near, mut far) = (None, None);
+    for part in text.split(',') {
+        let (key, value) = part.split_once(':').ok_or_else(bad)?;
+        let d: f64 = value.trim().parse().ok().filter(|d: &f64| d.is_finite()).ok_or_else(bad)?;
+        match key.trim() {
+            "near" if near.is_none() => near = Some(d),
+            "far" if far.is_none() => far = Some(d),
+            _ => return Err(bad()),
+        }
+    }
+    if let (Some(n), Some(f)) = (near, far)
+        && n >= f
+    {
+        bail!("--clip: near ({n}) must be closer than far ({f})");
+    }
+    Ok((near, far))
+}
+
 /// `--background`: a CSS colour name (`white`, `black`, `navy`), `#rrggbb`
 /// (both sRGB, as published) or three linear RGB numbers `r,g,b` in [0, 1];
 /// linear RGB, as the scene's `background` holds it.

@@ -253,3 +253,71 @@ fn depth_cueing_blends_a_tilted_plane_by_its_depth() {
     }
     assert!(checked > 1000 && blended > 200, "{checked} pixels on the plane, {blended} partly blended");
 }
+
+/// Clipping in closed form: a sphere of radius ρ = 3·sqrt(1 − cbrt(0.5))
+/// about the origin, the eye 12 away, `--clip near:12` (the plane through
+/// the centre). Cut faces are capped: from the front the sphere shows a
+/// disc of radius ρ/12/tan(15°)·48 pixels whose every pixel is hit on the
+/// plane (depth 12 along the view, from the depth AOV) with the plane's
+/// normal, facing the camera. `bench` against the f64 reference on the
+/// same clipped camera rays: no miss, no false hit, the sphere and 1A8O.
+#[test]
+fn a_clipped_sphere_shows_its_cap_on_the_cutting_plane() {
+    let dir = scratch("view-clip");
+    let path = dir.join("ball.ron");
+    std::fs::write(
+        &path,
+        r#"Scene(
+    camera: (eye: (0.0, 0.0, 12.0), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96)),
+    background: (0.0, 0.0, 0.0),
+    lights: [(direction: (0.3, 0.8, 0.5))],
+    iso: 0.5,
+    marching: (method: "quadratic-taylor", min_step: 0.001),
+    groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 3.0))])],
+)"#,
+    )
+    .unwrap();
+    let exr = dir.join("cut.exr");
+    isomarch(["render", path.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--clip", "near:12", "--aov", "depth,normal"]).ok();
+    let image = exr::prelude::read_all_flat_layers_from_file(&exr).unwrap();
+    let (depth, nz) = (exr_channel(&image, "Z"), exr_channel(&image, "normal.Z"));
+    let rho = 3.0 * (1.0 - 0.5f64.cbrt()).sqrt();
+    let half = 15f64.to_radians().tan();
+    let mut hits = 0;
+    for y in 0..96u32 {
+        for x in 0..96u32 {
+            let i = (y * 96 + x) as usize;
+            let (sx, sy) = ((2.0 * (f64::from(x) + 0.5) / 96.0 - 1.0) * half, (1.0 - 2.0 * (f64::from(y) + 0.5) / 96.0) * half);
+            let d = DVec3::new(sx, sy, -1.0).normalize();
+            // Where the ray meets the plane z = 0: inside the disc or not.
+            let t = 12.0 / -d.z;
+            let r = (t * d).truncate().length();
+            if !depth[i].is_finite() {
+                assert!(r > rho - 0.05, "pixel ({x}, {y}) missed at {r:.3} from the centre, inside the cap of radius {rho:.3}");
+                continue;
+            }
+            hits += 1;
+            assert!(r < rho + 0.05, "pixel ({x}, {y}) hit at {r:.3} from the centre, outside the cap");
+            assert!((f64::from(depth[i]) - t).abs() < 1e-4 * t, "pixel ({x}, {y}): depth {} where the plane is at {t:.5}", depth[i]);
+            assert!(nz[i] > 0.9999, "pixel ({x}, {y}): normal z {} is not the plane's, facing the camera", nz[i]);
+        }
+    }
+    let disc = rho / 12.0 / half * 48.0;
+    let measured = (f64::from(hits) / std::f64::consts::PI).sqrt();
+    assert!((measured - disc).abs() < 1.0, "a cap of radius {measured:.2} pixels, expected {disc:.2}");
+    for (input, clip) in [(path.clone(), "near:12"), (repo_root().join("tests/data/molecules/1A8O.pdb"), "near:80,far:120")] {
+        let bench = dir.join("bench.json");
+        isomarch(["bench", input.to_str().unwrap(), "--camera", "40x40", "--rays", "1600", "--clip", clip, "--methods", "quadratic-taylor,segment"])
+            .args(["--json", bench.to_str().unwrap()])
+            .ok();
+        let report = json(&bench);
+        assert!(report["reference_hit_rate"].as_f64().unwrap() > 0.1, "{report}");
+        for row in report["methods"].as_array().unwrap() {
+            assert_eq!((row["miss_rate"].as_f64(), row["false_hit_rate"].as_f64()), (Some(0.0), Some(0.0)), "{clip}: {row}");
+        }
+    }
+    for bad in ["near:5,far:4", "near", "side:3", "near:x"] {
+        let err = isomarch(["render", path.to_str().unwrap(), "-o", dir.join("x.png").to_str().unwrap(), "--clip", bad]).fails_in_one_line();
+        assert!(err.contains("--clip"), "{bad}: {err}");
+    }
+}

@@ -286,6 +286,11 @@ pub struct ViewFlags {
     /// target, so the target's plane keeps its framing).
     #[arg(long, value_name = "HEIGHT", num_args = 0..=1)]
     pub ortho: Option<Option<f64>>,
+    /// Clip the view: near:D (nothing nearer than D from the eye's plane
+    /// along the view), far:D, or both (near:D,far:D). Cut faces are
+    /// capped.
+    #[arg(long, value_name = "near:D,far:D")]
+    pub clip: Option<String>,
     /// The background: a colour name (white, black, navy), #rrggbb, or
     /// linear r,g,b in [0, 1] (default: the scene's).
     #[arg(long, value_name = "COLOR")]
@@ -295,7 +300,7 @@ pub struct ViewFlags {
 impl ViewFlags {
     /// Whether no view flag was given.
     pub fn is_empty(&self) -> bool {
-        self.turn.is_empty() && self.zoom.is_none() && self.fov.is_none() && self.ortho.is_none() && self.background.is_none()
+        self.turn.is_empty() && self.zoom.is_none() && self.fov.is_none() && self.ortho.is_none() && self.clip.is_none() && self.background.is_none()
     }
 
     /// Checks the view flags and applies them to `scene`'s camera.
@@ -316,6 +321,11 @@ impl ViewFlags {
                 None => 2.0 * (c.target - c.eye).length() * (0.5 * c.fov_y_deg.to_radians()).tan(),
             };
             scene.camera.projection = isomarch::scene::Projection::Orthographic { height };
+        }
+        if let Some(text) = &self.clip {
+            let (near, far) = checks::clip(text)?;
+            scene.camera.clip.near = near.or(scene.camera.clip.near);
+            scene.camera.clip.far = far.or(scene.camera.clip.far);
         }
         if let Some(text) = &self.background {
             scene.background = checks::background(text)?.into();

@@ -602,6 +602,9 @@ pub fn with_view(text: &str, camera: &crate::scene::Camera, background: DVec3) -
             if let crate::scene::Projection::Orthographic { height } = camera.projection {
                 let _ = writeln!(out, "        projection: Orthographic(height: {height:?}),");
             }
+            if camera.clip.near.is_some() || camera.clip.far.is_some() {
+                let _ = writeln!(out, "        clip: (near: {:?}, far: {:?}),", camera.clip.near, camera.clip.far);
+            }
             continue;
         }
         if line.starts_with("    background: ") {
@@ -611,7 +614,7 @@ pub fn with_view(text: &str, camera: &crate::scene::Camera, background: DVec3) -
         if in_camera {
             if line == "    )," {
                 in_camera = false;
-            } else if ["eye:", "target:", "up:", "fov_y:", "projection:"].iter().any(|k| line.trim_start().starts_with(k)) {
+            } else if ["eye:", "target:", "up:", "fov_y:", "projection:", "clip:"].iter().any(|k| line.trim_start().starts_with(k)) {
                 continue;
             }
         }

@@ -438,6 +438,32 @@ pub fn march_camera_frame(
     march_rays(renderer, method, options, rays, Some(first_ray))
 }
 
+/// Cut faces capped: a camera ray that starts inside the surface at a
+/// clipping plane hits at its start, where the field's gradient is no
+/// normal of the cut; it is shaded again (as shade.glsl shades) with the
+/// plane's normal, which the lights' shadow and occlusion rays then take.
+fn cap(scene: &crate::scene::Scene, rays: &[crate::layout::GpuRay], results: &mut [crate::layout::GpuResult]) {
+    let camera = &scene.camera;
+    if camera.clip.is_empty() {
+        return;
+    }
+    for (ray, r) in rays.iter().zip(results.iter_mut()) {
+        if r.counts[3] & FLAG_HIT == 0 || r.hit[3] != ray.o[3] {
+            continue;
+        }
+        let g = super::rays::Ray::from_gpu(ray);
+        let Some((_, _, Some(normal))) = camera.clip.interval(camera, g.o, g.d, (g.t0 - 1e-5 * g.t0.abs().max(1.0), g.t1)) else { continue };
+        let n = if normal.dot(g.d) > 0.0 { -normal } else { normal };
+        let base = super::light::unpack_base(r.crossings[3]);
+        let mut color = base * scene.ambient;
+        for l in &scene.lights {
+            color += super::light::light_terms(base, n, g.d, l.direction, l.color);
+        }
+        r.color[..3].copy_from_slice(&color.as_vec3().to_array());
+        r.hit[..3].copy_from_slice(&n.as_vec3().to_array());
+    }
+}
+
 fn march_rays(
     renderer: &mut Renderer,
     method: Method,
@@ -453,6 +479,9 @@ fn march_rays(
             Some(first) => renderer.march_camera(method, options, rays, first)?,
             None => renderer.march(method, options, rays, |_| {})?,
         };
+        if camera_from.is_some() && options.shade {
+            cap(renderer.scene(), rays, &mut out.results);
+        }
         out.light = super::light::apply(renderer, method, options, rays, &mut out)?;
         return Ok(out);
     };

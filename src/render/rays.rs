@@ -151,10 +151,21 @@ pub fn camera_rays_through(cam: &Camera, width: u32, height: u32, bounds: &Aabb,
                     let (ox, oy) = at(y * width + x);
                     let sx = (2.0 * (f64::from(x) + ox) / f64::from(width) - 1.0) * half_w;
                     let sy = (1.0 - 2.0 * (f64::from(y) + oy) / f64::from(height)) * half_h;
-                    rays.push(match ortho {
-                        None => clipped_ray(cam.eye, (forward + sx * right + sy * up).normalize(), bounds),
-                        Some(_) => clipped_ray(cam.eye + sx * right + sy * up, forward, bounds),
-                    });
+                    let (o, d) = match ortho {
+                        None => (cam.eye, (forward + sx * right + sy * up).normalize()),
+                        Some(_) => (cam.eye + sx * right + sy * up, forward),
+                    };
+                    let mut ray = clipped_ray(o, d, bounds);
+                    // Clipping narrows the ray's interval (the march and the
+                    // f64 reference both keep to it).
+                    if !cam.clip.is_empty() {
+                        let r = Ray::from_gpu(&ray);
+                        let (t0, t1) =
+                            if r.misses() { (1.0, 0.0) } else { cam.clip.interval(cam, o, d, (r.t0, r.t1)).map_or((1.0, 0.0), |(a, b, _)| (a, b)) };
+                        ray.o[3] = t0 as f32;
+                        ray.d[3] = t1 as f32;
+                    }
+                    rays.push(ray);
                     pixels.push(Some(y * width + x));
                 }
             }

@@ -289,7 +289,17 @@ mod tests {
     }
 
     fn camera(eye: DVec3, target: DVec3, fov: f64) -> Camera {
-        Camera { eye, target, up: DVec3::Y, fov_y_deg: fov, projection: Default::default(), width: 64, height: 64, samples: 1 }
+        Camera {
+            eye,
+            target,
+            up: DVec3::Y,
+            fov_y_deg: fov,
+            projection: Default::default(),
+            clip: Default::default(),
+            width: 64,
+            height: 64,
+            samples: 1,
+        }
     }
 
     #[test]

@@ -157,6 +157,9 @@ impl Scene {
         }
         s.camera.eye -= origin;
         s.camera.target -= origin;
+        for p in &mut s.camera.clip.planes {
+            p.point -= origin;
+        }
         s.bounds = Aabb { min: s.bounds.min - origin, max: s.bounds.max - origin };
         // Primitive motions are offsets; keyframed eyes are positions.
         if let Some(CameraPath::Keyframes(keys)) = &mut s.animation.camera {

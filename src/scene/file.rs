@@ -163,6 +163,28 @@ pub struct CameraFile {
     /// rays, a view `H` scene units high.
     #[serde(default)]
     pub projection: ProjectionFile,
+    /// Clipping: `near` and `far` from the eye's plane along the view,
+    /// and planes in world space (`normal` towards the side kept).
+    #[serde(default)]
+    pub clip: ClipFile,
+}
+
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(rename = "Clip", deny_unknown_fields)]
+pub struct ClipFile {
+    #[serde(default)]
+    pub near: Option<f64>,
+    #[serde(default)]
+    pub far: Option<f64>,
+    #[serde(default)]
+    pub planes: Vec<ClipPlaneFile>,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(rename = "ClipPlane", deny_unknown_fields)]
+pub struct ClipPlaneFile {
+    pub point: [f64; 3],
+    pub normal: [f64; 3],
 }
 
 #[derive(Clone, Copy, Debug, Default, Deserialize, Serialize)]

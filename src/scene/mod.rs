@@ -41,6 +41,8 @@ pub struct Camera {
     pub fov_y_deg: f64,
     /// Perspective (through the eye, `fov_y_deg`) or orthographic.
     pub projection: Projection,
+    /// What rays keep of the scene: the side of each clipping plane.
+    pub clip: Clip,
     pub width: u32,
     pub height: u32,
     /// Anti-aliasing: rays per pixel (1: through its centre).
@@ -56,6 +58,65 @@ pub enum Projection {
     /// Rays parallel to the view direction from the plane through the eye,
     /// a view `height` scene units high (the field of view is not used).
     Orthographic { height: f64 },
+}
+
+/// Clipping: a camera ray is marched only where it is past `near` and
+/// short of `far` (distances from the eye's plane along the view
+/// direction: they move with the camera) and on the kept side of every
+/// plane (world space: `normal` points to the side kept). Cut faces are
+/// capped: a ray that starts inside the surface at a clipping plane hits
+/// there, shaded with the plane's normal.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Clip {
+    pub near: Option<f64>,
+    pub far: Option<f64>,
+    pub planes: Vec<ClipPlane>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClipPlane {
+    pub point: DVec3,
+    /// Unit; points to the side kept.
+    pub normal: DVec3,
+}
+
+impl Clip {
+    pub fn is_empty(&self) -> bool {
+        self.near.is_none() && self.far.is_none() && self.planes.is_empty()
+    }
+
+    /// The part of `[t0, t1]` of the ray `o + t d` that is kept, and the
+    /// normal (pointing to the side kept) of the plane that set its start
+    /// where one did; `None` where nothing is kept.
+    pub fn interval(&self, camera: &Camera, o: DVec3, d: DVec3, (mut t0, mut t1): (f64, f64)) -> Option<(f64, f64, Option<DVec3>)> {
+        let forward = (camera.target - camera.eye).normalize();
+        let mut cut = None;
+        let mut keep = |point: DVec3, normal: DVec3, t0: &mut f64, t1: &mut f64| -> bool {
+            let (s0, sd) = (normal.dot(o - point), normal.dot(d));
+            if sd == 0.0 {
+                return s0 >= 0.0;
+            }
+            let t = -s0 / sd;
+            if sd > 0.0 && t > *t0 {
+                *t0 = t;
+                cut = Some(normal);
+            } else if sd < 0.0 && t < *t1 {
+                *t1 = t;
+            }
+            true
+        };
+        let mut all = true;
+        if let Some(near) = self.near {
+            all &= keep(camera.eye + near * forward, forward, &mut t0, &mut t1);
+        }
+        if let Some(far) = self.far {
+            all &= keep(camera.eye + far * forward, -forward, &mut t0, &mut t1);
+        }
+        for p in &self.planes {
+            all &= keep(p.point, p.normal, &mut t0, &mut t1);
+        }
+        (all && t0 <= t1).then_some((t0, t1, cut))
+    }
 }
 
 /// The largest image side, in pixels: a scene's `camera.resolution`,
@@ -464,6 +525,27 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
         file::ProjectionFile::Perspective => Projection::Perspective,
         file::ProjectionFile::Orthographic { height } => Projection::Orthographic { height: c.positive("camera.projection.height", height)? },
     };
+    let clip = Clip {
+        near: cam.clip.near.map(|d| c.finite("camera.clip.near", d)).transpose()?,
+        far: cam.clip.far.map(|d| c.finite("camera.clip.far", d)).transpose()?,
+        planes: cam
+            .clip
+            .planes
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                Ok(ClipPlane {
+                    point: c.vec3(&format!("camera.clip.planes[{i}].point"), p.point)?,
+                    normal: c.unit(&format!("camera.clip.planes[{i}].normal"), p.normal)?,
+                })
+            })
+            .collect::<Result<Vec<_>, SceneError>>()?,
+    };
+    if let (Some(n), Some(f)) = (clip.near, clip.far)
+        && n >= f
+    {
+        return Err(c.err("camera.clip", format!("near ({n}) must be closer than far ({f})")));
+    }
     let (w, h) = cam.resolution;
     if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
         return Err(c.err("camera.resolution", format!("must be 1..={MAX_SIDE} pixels each way, got ({w}, {h})")));
@@ -659,7 +741,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
     }
     Ok(Scene {
         source: name.to_string(),
-        camera: Camera { eye, target, up, fov_y_deg: fov, projection, width: w, height: h, samples: cam.samples },
+        camera: Camera { eye, target, up, fov_y_deg: fov, projection, clip, width: w, height: h, samples: cam.samples },
         background: c.color("background", f.background)?,
         ambient: c.color("ambient", f.ambient)?,
         surface,

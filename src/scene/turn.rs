@@ -111,6 +111,7 @@ mod tests {
             up: DVec3::Y,
             fov_y_deg: 30.0,
             projection: Projection::Perspective,
+            clip: Default::default(),
             width: 8,
             height: 8,
             samples: 1,

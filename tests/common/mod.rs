@@ -275,6 +275,7 @@ pub fn scene(groups: Vec<Vec<Primitive>>, iso: f64, method: Method, min_step: f6
             up: DVec3::Y,
             fov_y_deg: 40.0,
             projection: Default::default(),
+            clip: Default::default(),
             width: 64,
             height: 64,
             samples: 1,
