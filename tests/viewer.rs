@@ -635,3 +635,31 @@ fn motion_restarts_the_viewers_anti_aliasing() {
     let d = max_channel_diff(&back, &start);
     assert!(d <= 1, "after zooming in and out the window differs from the anti-aliased frame by {d} ({title})");
 }
+
+/// C saves the camera the window shows: after a drag and a wheel turn,
+/// `render --camera FILE` of the same scene makes the frame the window
+/// shows, byte for byte.
+#[test]
+fn the_saved_camera_renders_the_frame_the_viewer_showed() {
+    let dir = scratch("viewer-camera");
+    let s = Session::open(&["scenes/fig10.ron", "--size", "96x80", "--paused", "--screenshot-dir", dir.to_str().unwrap()]);
+    let (_, start) = s.settled();
+    s.send(&["mousemove", "--window", &s.window, "20", "40", "mousedown", "1", "mousemove", "--window", &s.window, "55", "30", "mouseup", "1"]);
+    let (_, turned) = s.settled_after(&start);
+    s.send(&["click", "4"]);
+    let (_, shown) = s.settled_after(&turned);
+    assert!(shown != start, "the view did not move");
+    s.send(&["key", "c"]);
+    let file = dir.join("fig10-camera-1.ron");
+    let started = std::time::Instant::now();
+    while !file.exists() {
+        assert!(started.elapsed().as_secs() < 30, "no camera saved to {}", file.display());
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    s.close();
+    let offscreen = render(Path::new("scenes/fig10.ron"), &dir.join("from-camera.png"), &["--camera", file.to_str().unwrap()]);
+    assert_eq!(offscreen.dimensions(), (96, 80), "the camera's resolution is the window's");
+    let d = max_channel_diff(&shown, &offscreen);
+    assert!(d == 0, "render --camera differs from the window by up to {d} per channel (saved in {})", dir.display());
+    assert!(max_channel_diff(&start, &offscreen) > 0, "the saved camera is the starting one");
+}

@@ -269,6 +269,12 @@ impl SceneFlags {
 /// a zoom and a field of view, applied to the scene's camera.
 #[derive(Args, Clone)]
 pub struct ViewFlags {
+    /// The camera whole, from a file holding a RON camera block (what the
+    /// viewer's C key writes): eye, target, up, field of view, resolution,
+    /// projection, clipping. A camera path of the scene is dropped: the
+    /// view stays. The other view flags apply after it.
+    #[arg(long, value_name = "FILE")]
+    pub camera: Option<std::path::PathBuf>,
     /// Turn the camera about its target: AXIS:DEGREES with the view's axes,
     /// y (vertical: the eye moves right for positive degrees), x
     /// (horizontal: the eye rises), z (the view rolls counterclockwise).
@@ -300,11 +306,21 @@ pub struct ViewFlags {
 impl ViewFlags {
     /// Whether no view flag was given.
     pub fn is_empty(&self) -> bool {
-        self.turn.is_empty() && self.zoom.is_none() && self.fov.is_none() && self.ortho.is_none() && self.clip.is_none() && self.background.is_none()
+        self.camera.is_none()
+            && self.turn.is_empty()
+            && self.zoom.is_none()
+            && self.fov.is_none()
+            && self.ortho.is_none()
+            && self.clip.is_none()
+            && self.background.is_none()
     }
 
     /// Checks the view flags and applies them to `scene`'s camera.
     pub fn apply(&self, scene: &mut Scene) -> Result<()> {
+        if let Some(path) = &self.camera {
+            scene.camera = isomarch::scene::Camera::load(path)?;
+            scene.animation.camera = None;
+        }
         for &turn in &self.turn {
             scene.camera = scene.camera.turned(turn);
         }

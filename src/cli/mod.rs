@@ -51,7 +51,7 @@ enum Command {
     /// Controls: drag to orbit, wheel to zoom, Space pause/play, Left/Right
     /// step one frame (1/fps s), + and - double and halve the speed, M next
     /// marcher, H step heatmap, T transparency on/off, S save a screenshot,
-    /// Esc quit. The title shows frame time, FPS, marcher, mean steps per
+    /// C save the camera (for render --camera), Esc quit. The title shows frame time, FPS, marcher, mean steps per
     /// ray, and a trajectory's frame and simulation time. While the view moves,
     /// frames are marched at a lower resolution that fits --preview-ms; at
     /// rest the full-resolution frame is marched in tiles over the preview.

@@ -504,10 +504,8 @@ impl Checker<'_> {
     }
 }
 
-/// Checks every value of a parsed file and resolves defaults.
-pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
-    let c = Checker { file: name };
-    let cam = &f.camera;
+/// The camera a file's camera block gives, checked.
+fn camera_of(c: &Checker, cam: &file::CameraFile) -> Result<Camera, SceneError> {
     let eye = c.vec3("camera.eye", cam.eye)?;
     let target = c.vec3("camera.target", cam.target)?;
     if (target - eye).length() < 1e-12 {
@@ -553,6 +551,51 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
     if !(1..=MAX_SAMPLES).contains(&cam.samples) {
         return Err(c.err("camera.samples", format!("must be 1..={MAX_SAMPLES} rays per pixel, got {}", cam.samples)));
     }
+    let (w, h) = cam.resolution;
+    Ok(Camera { eye, target, up, fov_y_deg: fov, projection, clip, width: w, height: h, samples: cam.samples })
+}
+
+impl Camera {
+    /// A camera from a file holding a RON camera block (what the viewer's
+    /// `C` key writes; `render --camera FILE`): the scene file's `camera:
+    /// (...)` alone.
+    pub fn load(path: &Path) -> Result<Camera, SceneError> {
+        let name = path.display().to_string();
+        let c = Checker { file: &name };
+        let text = std::fs::read_to_string(path).map_err(|e| c.err("", format!("cannot read: {e}")))?;
+        let cam: file::CameraFile = ron::from_str(&text).map_err(|e| c.err("", format!("not a camera block: {e}")))?;
+        camera_of(&c, &cam)
+    }
+
+    /// This camera as a RON camera block, every number to the last digit
+    /// (its path, if any, is the scene's and not written).
+    pub fn to_ron(&self) -> String {
+        let v = |p: DVec3| format!("({:?}, {:?}, {:?})", p.x, p.y, p.z);
+        let mut s = format!(
+            "(\n    eye: {},\n    target: {},\n    up: {},\n    fov_y: {:?},\n    resolution: ({}, {}),\n    samples: {},\n",
+            v(self.eye),
+            v(self.target),
+            v(self.up),
+            self.fov_y_deg,
+            self.width,
+            self.height,
+            self.samples
+        );
+        if let Projection::Orthographic { height } = self.projection {
+            s += &format!("    projection: Orthographic(height: {height:?}),\n");
+        }
+        if !self.clip.is_empty() {
+            let planes: Vec<String> = self.clip.planes.iter().map(|p| format!("(point: {}, normal: {})", v(p.point), v(p.normal))).collect();
+            s += &format!("    clip: (near: {:?}, far: {:?}, planes: [{}]),\n", self.clip.near, self.clip.far, planes.join(", "));
+        }
+        s + ")\n"
+    }
+}
+
+/// Checks every value of a parsed file and resolves defaults.
+pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
+    let c = Checker { file: name };
+    let camera = camera_of(&c, &f.camera)?;
     let iso = c.positive("iso", f.iso)?;
     let method: Method = f.marching.method.parse().map_err(|e: String| c.err("marching.method", e))?;
     let min_step = c.positive("marching.min_step", f.marching.min_step)?;
@@ -741,7 +784,7 @@ pub fn validate(f: &SceneFile, name: &str) -> Result<Scene, SceneError> {
     }
     Ok(Scene {
         source: name.to_string(),
-        camera: Camera { eye, target, up, fov_y_deg: fov, projection, clip, width: w, height: h, samples: cam.samples },
+        camera,
         background: c.color("background", f.background)?,
         ambient: c.color("ambient", f.ambient)?,
         surface,

@@ -135,6 +135,12 @@ impl App {
 
     /// The scene as it should look now, for an image of `size`.
     fn posed(&self, size: (u32, u32)) -> Scene {
+        self.posed_in_world(size).recentred_on_camera()
+    }
+
+    /// [`App::posed`] in the scene's own coordinates (not re-centred on
+    /// the eye): its camera is the one the window shows.
+    fn posed_in_world(&self, size: (u32, u32)) -> Scene {
         let base = self.player.as_ref().map_or(&self.options.scene, |p| &p.scene);
         let mut s = base.at_time(self.camera.time);
         if !self.controls.transparency {
@@ -142,7 +148,19 @@ impl App {
         }
         self.camera.orbit.apply(&mut s);
         (s.camera.width, s.camera.height) = size;
-        s.recentred_on_camera()
+        s
+    }
+
+    /// Writes the camera the window shows as a RON camera block, beside the
+    /// screenshots: `render SCENE --camera FILE` makes this frame.
+    fn save_camera(&mut self) -> Result<()> {
+        let Some(gpu) = &self.gpu else { return Ok(()) };
+        let camera = self.posed_in_world(gpu.presenter.extent()).camera;
+        self.controls.cameras += 1;
+        let path = self.options.screenshot_dir.join(format!("{}-camera-{}.ron", self.scene_name(), self.controls.cameras));
+        output::write_atomic(&path, camera.to_ron().as_bytes())?;
+        eprintln!("saved the camera to {} (render SCENE --camera {} makes this view)", path.display(), path.display());
+        Ok(())
     }
 
     fn open(&mut self, el: &ActiveEventLoop) -> Result<()> {
@@ -191,6 +209,7 @@ impl App {
             }
             Control::ToggleTransparency => {}
             Control::Screenshot => self.save_screenshot(None)?,
+            Control::SaveCamera => self.save_camera()?,
             Control::Faster => self.camera.speed = (self.camera.speed * 2.0).min(64.0),
             Control::Slower => self.camera.speed = (self.camera.speed / 2.0).max(1.0 / 64.0),
         }

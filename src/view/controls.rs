@@ -23,6 +23,8 @@ pub enum Control {
     ToggleHeatmap,
     ToggleTransparency,
     Screenshot,
+    /// Write the camera as shown (a RON camera block for `render --camera`).
+    SaveCamera,
     Faster,
     Slower,
 }
@@ -40,6 +42,7 @@ impl Control {
                 "h" => Control::ToggleHeatmap,
                 "t" => Control::ToggleTransparency,
                 "s" => Control::Screenshot,
+                "c" => Control::SaveCamera,
                 "+" | "=" => Control::Faster,
                 "-" => Control::Slower,
                 _ => return None,
@@ -96,6 +99,8 @@ pub struct Controls {
     pub cursor: (f64, f64),
     /// When the mouse last turned or zoomed the view (or pressed to).
     pub last_input: Instant,
+    /// Cameras saved with C, to number their files.
+    pub cameras: u32,
     /// Screenshots saved with S, to number their files.
     pub screenshots: u32,
 }
@@ -111,6 +116,7 @@ impl Controls {
             cursor: (0.0, 0.0),
             last_input: now - Duration::from_secs(1),
             screenshots: 0,
+            cameras: 0,
         }
     }
 
@@ -192,6 +198,7 @@ mod tests {
         assert_eq!(Control::of_key(&ch("h")), Some(Control::ToggleHeatmap));
         assert_eq!(Control::of_key(&ch("t")), Some(Control::ToggleTransparency));
         assert_eq!(Control::of_key(&ch("s")), Some(Control::Screenshot));
+        assert_eq!(Control::of_key(&ch("c")), Some(Control::SaveCamera));
         assert_eq!(Control::of_key(&ch("=")), Some(Control::Faster));
         assert_eq!(Control::of_key(&ch("-")), Some(Control::Slower));
         assert_eq!(Control::of_key(&ch("x")), None);
