@@ -16,6 +16,7 @@ pub mod generate;
 pub mod gpu;
 pub mod inputs;
 pub mod layout;
+pub mod look;
 pub mod method;
 pub mod molecule;
 pub mod open;

@@ -89,6 +89,16 @@ class Scene:
         #: What a molecule became: atoms used and left out.
         self.summary = summary
 
+    def viewed(self, **view) -> "Scene":
+        """This scene seen otherwise, as ``isomarch render``'s view flags
+        do, applied in this order: ``camera`` (a file holding a RON camera
+        block, as the viewer's C key writes), ``turn`` (a list such as
+        ``["y:90", "x:-20"]``: VTK's azimuth, elevation and roll),
+        ``zoom``, ``fov`` (degrees), ``ortho`` (True, or the view's height),
+        ``clip`` (``"near:D,far:D"``) and ``background`` (a colour name,
+        ``#rrggbb`` or linear ``"r,g,b"``). The scene itself is unchanged."""
+        return Scene(self._native.viewed(**view), self.warnings, self.summary)
+
     @staticmethod
     def load(path: PathLike) -> "Scene":
         """Reads, parses and validates a scene file (.ron); a molecule file

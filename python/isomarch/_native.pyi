@@ -39,6 +39,17 @@ class MoleculeOptions:
     ) -> None: ...
 
 class NativeScene:
+    def viewed(
+        self,
+        *,
+        camera: Optional[str] = None,
+        turn: Optional[list] = None,
+        zoom: Optional[float] = None,
+        fov: Optional[float] = None,
+        ortho: Optional[Any] = None,
+        clip: Optional[str] = None,
+        background: Optional[str] = None,
+    ) -> "NativeScene": ...
     primitive_count: int
     resolution: Tuple[int, int]
     method: str

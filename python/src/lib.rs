@@ -57,6 +57,37 @@ impl NativeScene {
     fn animated(&self) -> bool {
         !self.scene.animation.is_static()
     }
+
+    /// The scene seen otherwise, as the command line's view flags do
+    /// (isomarch::look::View): `ortho` True takes the perspective view's
+    /// height at the target, a number is the height.
+    #[pyo3(signature = (*, camera=None, turn=None, zoom=None, fov=None, ortho=None, clip=None, background=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn viewed(
+        &self,
+        camera: Option<PathBuf>,
+        turn: Option<Vec<String>>,
+        zoom: Option<f64>,
+        fov: Option<f64>,
+        ortho: Option<Bound<'_, PyAny>>,
+        clip: Option<String>,
+        background: Option<String>,
+    ) -> PyResult<NativeScene> {
+        let turns = turn
+            .unwrap_or_default()
+            .iter()
+            .map(|t| t.parse::<isomarch::scene::turn::Turn>().map_err(|e| IsomarchError::new_err(format!("turn: {e}"))))
+            .collect::<PyResult<Vec<_>>>()?;
+        let ortho = match ortho {
+            None => None,
+            Some(o) if o.is_instance_of::<pyo3::types::PyBool>() => o.extract::<bool>()?.then_some(None),
+            Some(o) => Some(Some(o.extract::<f64>()?)),
+        };
+        let view = isomarch::look::View { camera, turns, zoom, fov, ortho, clip, background };
+        let mut scene = self.scene.clone();
+        view.apply(&mut scene).map_err(raise)?;
+        Ok(NativeScene { scene })
+    }
 }
 
 /// A value of one of the command line's choices, named by a str

@@ -355,3 +355,16 @@ def test_selections_and_values_per_frame_equal_the_clis(renderer, tmp_path):
     assert renderer.render(same[1], size=(40, 40)).png() != (tmp_path / "v_1.png").read_bytes(), "frame 1 took row 0's colours"
     with pytest.raises(isomarch.IsomarchError, match="3 rows of values, none for frame 5"):
         frames[5]
+
+
+def test_a_viewed_scene_renders_as_the_clis_view_flags(renderer, tmp_path):
+    flags = ["--turn", "y:90", "--turn", "x:-20", "--zoom", "1.3", "--fov", "25", "--ortho", "--clip", "near:60", "--background", "white"]
+    cli("render", PDB, "-o", tmp_path / "cli.png", "--size", "40x40", *flags)
+    scene = isomarch.Scene.from_molecule(PDB).viewed(turn=["y:90", "x:-20"], zoom=1.3, fov=25, ortho=True, clip="near:60", background="white")
+    assert renderer.render(scene, size=(40, 40)).png() == (tmp_path / "cli.png").read_bytes()
+    plain = renderer.render(isomarch.Scene.from_molecule(PDB), size=(40, 40)).png()
+    assert plain != (tmp_path / "cli.png").read_bytes(), "the view changed nothing"
+    message = cli("render", PDB, "-o", tmp_path / "x.png", "--turn", "w:90", check=False).stderr.strip()
+    with pytest.raises(isomarch.IsomarchError):
+        isomarch.Scene.from_molecule(PDB).viewed(turn=["w:90"])
+    assert message

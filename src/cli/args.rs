@@ -304,48 +304,26 @@ pub struct ViewFlags {
 }
 
 impl ViewFlags {
-    /// Whether no view flag was given.
-    pub fn is_empty(&self) -> bool {
-        self.camera.is_none()
-            && self.turn.is_empty()
-            && self.zoom.is_none()
-            && self.fov.is_none()
-            && self.ortho.is_none()
-            && self.clip.is_none()
-            && self.background.is_none()
+    /// The library's view of these flags.
+    pub fn view(&self) -> isomarch::look::View {
+        isomarch::look::View {
+            camera: self.camera.clone(),
+            turns: self.turn.clone(),
+            zoom: self.zoom,
+            fov: self.fov,
+            ortho: self.ortho,
+            clip: self.clip.clone(),
+            background: self.background.clone(),
+        }
     }
 
-    /// Checks the view flags and applies them to `scene`'s camera.
+    /// Whether no view flag was given.
+    pub fn is_empty(&self) -> bool {
+        self.view().is_empty()
+    }
+
+    /// Checks the view flags and applies them to `scene`.
     pub fn apply(&self, scene: &mut Scene) -> Result<()> {
-        if let Some(path) = &self.camera {
-            scene.camera = isomarch::scene::Camera::load(path)?;
-            scene.animation.camera = None;
-        }
-        for &turn in &self.turn {
-            scene.camera = scene.camera.turned(turn);
-        }
-        if let Some(f) = self.zoom {
-            scene.camera = scene.camera.zoomed(checks::zoom(f)?);
-        }
-        if let Some(deg) = self.fov {
-            scene.camera.fov_y_deg = checks::fov(deg)?;
-        }
-        if let Some(height) = self.ortho {
-            let c = &scene.camera;
-            let height = match height {
-                Some(h) => checks::ortho(h)?,
-                None => 2.0 * (c.target - c.eye).length() * (0.5 * c.fov_y_deg.to_radians()).tan(),
-            };
-            scene.camera.projection = isomarch::scene::Projection::Orthographic { height };
-        }
-        if let Some(text) = &self.clip {
-            let (near, far) = checks::clip(text)?;
-            scene.camera.clip.near = near.or(scene.camera.clip.near);
-            scene.camera.clip.far = far.or(scene.camera.clip.far);
-        }
-        if let Some(text) = &self.background {
-            scene.background = checks::background(text)?.into();
-        }
-        Ok(())
+        self.view().apply(scene)
     }
 }
