@@ -167,17 +167,23 @@ pub fn clip(text: &str) -> Result<(Option<f64>, Option<f64>)> {
 /// (both sRGB, as published) or three linear RGB numbers `r,g,b` in [0, 1];
 /// linear RGB, as the scene's `background` holds it.
 pub fn background(text: &str) -> Result<[f64; 3]> {
+    color("--background", text)
+}
+
+/// A colour given to `flag`: a CSS name, `#rrggbb` (sRGB) or linear
+/// `r,g,b` in [0, 1]; linear RGB.
+pub fn color(flag: &str, text: &str) -> Result<[f64; 3]> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() == 3
         && let Ok(v) = parts.iter().map(|p| p.parse::<f64>()).collect::<Result<Vec<f64>, _>>()
     {
         if v.iter().any(|c| !(c.is_finite() && (0.0..=1.0).contains(c))) {
-            bail!("--background r,g,b takes linear values in [0, 1], got {text:?}");
+            bail!("{flag} r,g,b takes linear values in [0, 1], got {text:?}");
         }
         return Ok([v[0], v[1], v[2]]);
     }
     let Ok(c) = csscolorparser::parse(text) else {
-        bail!("--background {text:?} is no colour: give a name (white, black, navy), #rrggbb, or linear r,g,b in [0, 1]");
+        bail!("{flag} {text:?} is no colour: give a name (white, black, navy), #rrggbb, or linear r,g,b in [0, 1]");
     };
     let linear = |s: f32| {
         let s = f64::from(s);

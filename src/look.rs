@@ -63,6 +63,11 @@ impl View {
             let (near, far) = checks::clip(text)?;
             scene.camera.clip.near = near.or(scene.camera.clip.near);
             scene.camera.clip.far = far.or(scene.camera.clip.far);
+            if let (Some(n), Some(f)) = (scene.camera.clip.near, scene.camera.clip.far)
+                && n >= f
+            {
+                anyhow::bail!("--clip: near ({n}) must be closer than far ({f}), the scene's camera.clip included");
+            }
         }
         if let Some(text) = &self.background {
             scene.background = checks::background(text)?.into();

@@ -215,6 +215,8 @@ const OPTIONAL_FIELDS: &[(&str, &str, &str, &str)] = &[
         "resolution: (16, 16), path: Keyframes([(0.0, (0.0, 0.0, 8.0)), (1.0, (1.0, 0.0, 8.0))]))",
         "resolution: (16, 16), path: Some(Keyframes([(0.0, (0.0, 0.0, 8.0)), (1.0, (1.0, 0.0, 8.0))])))",
     ),
+    ("near", "resolution: (16, 16))", "resolution: (16, 16), clip: (near: 7.0))", "resolution: (16, 16), clip: (near: Some(7.0)))"),
+    ("far", "resolution: (16, 16))", "resolution: (16, 16), clip: (far: 9.0))", "resolution: (16, 16), clip: (far: Some(9.0)))"),
     ("transparency", "iso: 0.5,", "iso: 0.5, transparency: (opacity: 0.3),", "iso: 0.5, transparency: Some((opacity: 0.3)),"),
     ("ao", "iso: 0.5,", "iso: 0.5, ao: (samples: 4, distance: 2.0),", "iso: 0.5, ao: Some((samples: 4, distance: 2.0)),"),
     ("ior", "iso: 0.5,", "iso: 0.5, transparency: (ior: 1.4),", "iso: 0.5, transparency: (ior: Some(1.4)),"),

@@ -158,6 +158,14 @@ fn values_from_a_file_colour_atoms_by_site_or_by_atom_drawn() {
     // By atom drawn (3 values), as a column with a comment.
     std::fs::write(dir.join("drawn.csv"), "# one per atom drawn\n5\n6\n7\n").unwrap();
     assert_eq!(scene_colors(&pdb, &["--color-values", dir.join("drawn.csv").to_str().unwrap()]), viridis);
+    // With a surface per chain the scene holds chain A's atoms, then B's;
+    // values per atom drawn still follow the file's order.
+    let chains: String =
+        [("A", 0.0), ("B", 100.0), ("A", 200.0)].iter().enumerate().map(|(i, &(c, x))| record(i + 1, "C", "LIG", i as i64 + 1, c, x, 0.0)).collect();
+    let two = dir.join("chains.pdb");
+    std::fs::write(&two, chains).unwrap();
+    let per_chain = scene_colors(&two, &["--color-values", dir.join("drawn.csv").to_str().unwrap(), "--surfaces", "per-chain"]);
+    assert_eq!(per_chain, [viridis[0], viridis[2], viridis[1]], "scene order A, A, B: values 5, 7, 6");
 }
 
 /// Twenty bad selections, ranges and values files: each refused in one

@@ -121,6 +121,25 @@ fn a_scene_written_with_view_flags_renders_as_the_flags_do() {
     let from_file = render(&ron, &[], "file.png");
     assert_eq!(from_file, render(&pdb, &flags, "flags.png"), "the scene file's camera is not the flags'");
     assert_ne!(from_file, render(&pdb, &[], "plain.png"), "the flags changed nothing");
+    // A camera given whole (resolution, clipping and all) is written whole.
+    let camera = dir.join("camera.ron");
+    std::fs::write(
+        &camera,
+        "(eye: (60.0, 30.0, 90.0), target: (19.0, 37.0, 17.0), up: (0.0, 1.0, 0.0), fov_y: 20.0, resolution: (48, 40), clip: (near: Some(80.0)))\n",
+    )
+    .unwrap();
+    let whole = dir.join("whole.ron");
+    isomarch(["scene", pdb.to_str().unwrap(), "-o", whole.to_str().unwrap(), "--camera", camera.to_str().unwrap(), "--turntable", "8"]).ok();
+    let render_sized = |input: &std::path::Path, extra: &[&str], name: &str| -> Vec<u8> {
+        let png = dir.join(name);
+        isomarch(["render", input.to_str().unwrap(), "-o", png.to_str().unwrap()]).args(extra).ok();
+        std::fs::read(png).unwrap()
+    };
+    assert_eq!(
+        render_sized(&whole, &[], "whole.png"),
+        render_sized(&pdb, &["--camera", camera.to_str().unwrap(), "--turntable", "8"], "camera.png"),
+        "scene --camera and render --camera differ"
+    );
 }
 
 /// Orthographic projection in closed form: a sphere of radius ρ renders as
@@ -302,6 +321,12 @@ fn a_clipped_sphere_shows_its_cap_on_the_cutting_plane() {
             assert!(nz[i] > 0.9999, "pixel ({x}, {y}): normal z {} is not the plane's, facing the camera", nz[i]);
         }
     }
+    // Shadows and occlusion see what the clipping kept: a cap faces the
+    // removed side, so none of its rays is shadowed or occluded.
+    let (lit, plain) = (dir.join("lit.png"), dir.join("plain.png"));
+    isomarch(["render", path.to_str().unwrap(), "-o", lit.to_str().unwrap(), "--clip", "near:12", "--shadows", "--ao", "8"]).ok();
+    isomarch(["render", path.to_str().unwrap(), "-o", plain.to_str().unwrap(), "--clip", "near:12"]).ok();
+    assert_eq!(image::open(&lit).unwrap().to_rgb8(), image::open(&plain).unwrap().to_rgb8(), "the cap is shadowed or occluded by what was cut away");
     let disc = rho / 12.0 / half * 48.0;
     let measured = (f64::from(hits) / std::f64::consts::PI).sqrt();
     assert!((measured - disc).abs() < 1.0, "a cap of radius {measured:.2} pixels, expected {disc:.2}");

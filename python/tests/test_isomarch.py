@@ -364,7 +364,9 @@ def test_a_viewed_scene_renders_as_the_clis_view_flags(renderer, tmp_path):
     assert renderer.render(scene, size=(40, 40)).png() == (tmp_path / "cli.png").read_bytes()
     plain = renderer.render(isomarch.Scene.from_molecule(PDB), size=(40, 40)).png()
     assert plain != (tmp_path / "cli.png").read_bytes(), "the view changed nothing"
-    message = cli("render", PDB, "-o", tmp_path / "x.png", "--turn", "w:90", check=False).stderr.strip()
-    with pytest.raises(isomarch.IsomarchError):
+    message = cli("render", PDB, "-o", tmp_path / "x.png", "--turn", "w:90", check=False).stderr
+    with pytest.raises(isomarch.IsomarchError) as e:
         isomarch.Scene.from_molecule(PDB).viewed(turn=["w:90"])
-    assert message
+    # The same reason, named for the flag on the command line and for the keyword in Python.
+    reason = str(e.value)[len("turn: "):]
+    assert str(e.value).startswith("turn: ") and reason in message, (str(e.value), message)

@@ -58,7 +58,8 @@ pub struct MoleculeArgs {
     #[arg(long, value_enum)]
     pub palette: Option<isomarch::molecule::color::Palette>,
     /// The values at the palette's ends, MIN:MAX [default: the least and
-    /// greatest of the atoms drawn].
+    /// greatest of the atoms drawn; with --color-values, of every value
+    /// the file holds, all atoms and frames].
     #[arg(long, value_name = "MIN:MAX", allow_hyphen_values = true)]
     pub range: Option<String>,
     /// Colour atoms by values from a CSV file: one value per atom (of the

@@ -203,6 +203,12 @@ impl Batch {
     fn new(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Scene, stager: Option<Stager>, legend: Option<ColorBar>) -> Result<Batch> {
         let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
         let effects = effects(&args)?;
+        if args.legend && args.transparent_background {
+            bail!("--legend and --transparent-background cannot be drawn together: the bar needs a background");
+        }
+        if args.legend && FileFormat::of("-o", &args.output, FileFormat::IMAGE)? != FileFormat::Png {
+            bail!("--legend draws the colour bar on PNG images; -o {} is not one", args.output.display());
+        }
         let RenderArgs { output, batch, .. } = args;
         if args.heatmap.is_some() || !args.aov.is_empty() || args.stats.is_some() || args.aov_output.is_some() || args.steps_max.is_some() {
             bail!(
@@ -281,7 +287,7 @@ fn effects(args: &RenderArgs) -> Result<Effects> {
             if !(jump.is_finite() && jump > 0.0 && jump < 1.0) {
                 bail!("--outline-jump is a fraction of the scene's depth range, in (0, 1), got {jump}");
             }
-            let color = args.outline_color.as_deref().map(checks::background).transpose()?.unwrap_or([0.0; 3]);
+            let color = args.outline_color.as_deref().map(|c| checks::color("--outline-color", c)).transpose()?.unwrap_or([0.0; 3]);
             Some(Outline { width, color, jump })
         }
     };

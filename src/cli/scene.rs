@@ -59,7 +59,7 @@ pub fn run(args: SceneArgs) -> Result<()> {
         text
     } else {
         args.view.apply(&mut scene)?;
-        isomarch::molecule::build::with_view(&text, &scene.camera, scene.background)
+        isomarch::molecule::build::with_view(&text, &scene.camera, scene.background, args.view.camera.is_none())
     };
     // The text must load as the molecule renders: check before writing.
     Scene::parse(&text, &source)?;

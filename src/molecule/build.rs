@@ -138,7 +138,8 @@ pub struct MoleculeOptions {
     /// The palette of colourings by value; `None`: viridis.
     pub palette: Option<Palette>,
     /// The values at the palette's ends; `None`: the least and greatest
-    /// of the atoms drawn.
+    /// of the atoms drawn (values given: of every value given, so that a
+    /// colour means one value in every frame).
     pub range: Option<Range>,
     /// Seconds per turn of a turntable camera (an orbit about the
     /// vertical axis through the molecule's centre); `None`: still.
@@ -382,6 +383,9 @@ pub(crate) struct Kept<'a> {
     pub atoms: Vec<&'a Atom>,
     /// Each atom's group (its surface).
     pub groups: Vec<usize>,
+    /// Each atom's place among the atoms drawn in file order (values given
+    /// per atom drawn are in that order).
+    pub drawn: Vec<usize>,
     /// Selected hydrogens left out (no `--hydrogens`).
     pub hydrogens: usize,
     /// Atoms the selection left out.
@@ -424,23 +428,26 @@ pub(crate) fn kept<'a>(m: &'a Molecule, o: &MoleculeOptions, picks: Option<&Pick
     }
     let main = chains.len().max(usize::from(drawn.iter().any(|(_, apart)| apart.is_none())));
     let mut used = vec![false; o.apart.len()];
-    let mut grouped: Vec<(usize, &Atom)> = drawn
+    let mut grouped: Vec<(usize, usize, &Atom)> = drawn
         .iter()
-        .map(|&(a, apart)| match apart {
-            Some(k) => {
-                used[k] = true;
-                (main + k, a)
+        .enumerate()
+        .map(|(k, &(a, apart))| match apart {
+            Some(s) => {
+                used[s] = true;
+                (main + s, k, a)
             }
-            None => (chains.iter().position(|c| *c == a.chain).unwrap_or(0), a),
+            None => (chains.iter().position(|c| *c == a.chain).unwrap_or(0), k, a),
         })
         .collect();
     if let Some(k) = used.iter().position(|u| !u) {
         bail!("{}: --apart '{}' picks none of the atoms drawn (or an earlier --apart took them all)", m.source, o.apart[k]);
     }
     // Every group holds an atom, so the numbers have no gaps.
-    grouped.sort_by_key(|(g, _)| *g);
-    let (groups, atoms): (Vec<usize>, Vec<&Atom>) = grouped.into_iter().unzip();
-    Ok(Kept { hydrogens: selected.len() - atoms.len(), unselected, atoms, groups })
+    grouped.sort_by_key(|(g, _, _)| *g);
+    let groups = grouped.iter().map(|(g, _, _)| *g).collect();
+    let order = grouped.iter().map(|(_, k, _)| *k).collect();
+    let atoms: Vec<&Atom> = grouped.into_iter().map(|(_, _, a)| a).collect();
+    Ok(Kept { hydrogens: selected.len() - atoms.len(), unselected, atoms, groups, drawn: order })
 }
 
 /// An element's radius as drawn (Bondi's, or the fallback, times the scale).
@@ -452,7 +459,7 @@ fn radius(symbol: &str, o: &MoleculeOptions) -> f64 {
 pub fn staged_text(m: &Molecule, o: &MoleculeOptions, stage: Stage) -> Result<(String, Notes)> {
     let Stage { framing, note, frame, picks } = stage;
     o.check()?;
-    let Kept { atoms, groups, hydrogens, unselected } = kept(m, o, picks)?;
+    let Kept { atoms, groups, drawn, hydrogens, unselected } = kept(m, o, picks)?;
     // Elements without a Bondi radius: one warning naming each with its
     // first line and count.
     let mut unknown: BTreeMap<&str, (usize, usize)> = BTreeMap::new();
@@ -483,7 +490,7 @@ pub fn staged_text(m: &Molecule, o: &MoleculeOptions, stage: Stage) -> Result<(S
     // Colourings by value: the range given, else the values' own (all
     // frames' for values given per frame).
     let given: Option<Vec<f64>> = match (&o.values, o.coloring) {
-        (Some(values), Coloring::Values) => Some(values_drawn(values, frame, m, &atoms)?),
+        (Some(values), Coloring::Values) => Some(values_drawn(values, frame, m, &atoms, &drawn)?),
         (None, Coloring::Values) => bail!("--color values colours by the values of --color-values FILE, which was not given"),
         _ => None,
     };
@@ -562,14 +569,15 @@ pub fn staged_text(m: &Molecule, o: &MoleculeOptions, stage: Stage) -> Result<(S
     Ok((framed_text(&made_by, &balls, o, framing.unwrap_or_else(|| Framing::of(&balls))), notes))
 }
 
-/// The values of the atoms drawn at `frame`: a row holds one value per
-/// atom of the file (by site) or one per atom drawn (in order).
-fn values_drawn(values: &Values, frame: usize, m: &Molecule, atoms: &[&Atom]) -> Result<Vec<f64>> {
+/// The values of the atoms drawn at `frame` (in the scene's order, group
+/// by group; `drawn` their places in file order): a row holds one value per
+/// atom of the file (by site) or one per atom drawn (in file order).
+fn values_drawn(values: &Values, frame: usize, m: &Molecule, atoms: &[&Atom], drawn: &[usize]) -> Result<Vec<f64>> {
     let row = values.row(frame)?;
     if row.len() == m.sites {
         Ok(atoms.iter().map(|a| row[a.site]).collect())
     } else if row.len() == atoms.len() {
-        Ok(row.to_vec())
+        Ok(drawn.iter().map(|&k| row[k]).collect())
     } else {
         bail!(
             "{}: {} values per frame, but {} has {} atoms, {} of them drawn: give one value per atom of the file or per atom drawn",
@@ -582,41 +590,36 @@ fn values_drawn(values: &Values, frame: usize, m: &Molecule, atoms: &[&Atom]) ->
     }
 }
 
-/// The scene text `text` (as [`framed_text`] writes it) with its camera's
-/// eye, target, up and field of view those of `camera`, and `background`
-/// (the view flags of `isomarch scene`); the resolution and any path stay.
-pub fn with_view(text: &str, camera: &crate::scene::Camera, background: DVec3) -> String {
-    let mut out = String::with_capacity(text.len() + 64);
+/// The scene text `text` (as [`framed_text`] writes it) with `camera`
+/// written whole (every digit, so the file's camera is the one given, bit
+/// for bit) and `background` (the view flags of `isomarch scene`); the
+/// camera's path stays where `keep_path` (a camera given whole drops it).
+pub fn with_view(text: &str, camera: &crate::scene::Camera, background: DVec3, keep_path: bool) -> String {
+    let mut out = String::with_capacity(text.len() + 256);
     let mut in_camera = false;
     for line in text.lines() {
         if line == "    camera: (" {
             in_camera = true;
             let _ = writeln!(out, "{line}");
-            // Every digit (Rust's shortest round trip), so the file's camera
-            // is the one the flags make, bit for bit.
-            let exact = |p: DVec3| format!("({:?}, {:?}, {:?})", p.x, p.y, p.z);
-            let _ = writeln!(out, "        eye: {},", exact(camera.eye));
-            let _ = writeln!(out, "        target: {},", exact(camera.target));
-            let _ = writeln!(out, "        up: {},", exact(camera.up));
-            let _ = writeln!(out, "        fov_y: {:?},", camera.fov_y_deg);
-            if let crate::scene::Projection::Orthographic { height } = camera.projection {
-                let _ = writeln!(out, "        projection: Orthographic(height: {height:?}),");
+            let block = camera.to_ron();
+            let inner: Vec<&str> = block.lines().collect();
+            for l in &inner[1..inner.len() - 1] {
+                let _ = writeln!(out, "    {l}");
             }
-            if camera.clip.near.is_some() || camera.clip.far.is_some() {
-                let _ = writeln!(out, "        clip: (near: {:?}, far: {:?}),", camera.clip.near, camera.clip.far);
+            continue;
+        }
+        if in_camera {
+            if line == "    )," {
+                in_camera = false;
+                let _ = writeln!(out, "{line}");
+            } else if keep_path && line.trim_start().starts_with("path:") {
+                let _ = writeln!(out, "{line}");
             }
             continue;
         }
         if line.starts_with("    background: ") {
             let _ = writeln!(out, "    background: ({:?}, {:?}, {:?}),", background.x, background.y, background.z);
             continue;
-        }
-        if in_camera {
-            if line == "    )," {
-                in_camera = false;
-            } else if ["eye:", "target:", "up:", "fov_y:", "projection:", "clip:"].iter().any(|k| line.trim_start().starts_with(k)) {
-                continue;
-            }
         }
         let _ = writeln!(out, "{line}");
     }
@@ -700,6 +703,9 @@ fn framed_text(made_by: &str, balls: &[Ball], o: &MoleculeOptions, framing: Fram
 /// The same scene as [`scene_text`] makes of a file with these atoms.
 pub fn atoms_scene(centers: &[DVec3], radii: &[f64], colors: Option<&[[f64; 3]]>, o: &MoleculeOptions) -> Result<Scene> {
     o.check()?;
+    if o.select.is_some() || o.values.is_some() || !o.apart.is_empty() || o.surfaces != Surfaces::One || o.palette.is_some() || o.range.is_some() {
+        bail!("atoms given as arrays are drawn as given: select, values, palette, range, surfaces and apart apply to molecule files");
+    }
     if centers.is_empty() {
         bail!("no atoms: positions is empty");
     }

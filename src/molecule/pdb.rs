@@ -120,8 +120,8 @@ pub fn parse_at(text: &str, file: &str, skipped: usize) -> Result<Molecule, Mole
         sites += 1;
         let altloc = line.as_bytes()[16] as char;
         if altloc != ' ' {
-            let chosen = chosen_residue.entry(line[21..27].to_string()).or_insert_with(|| line[17..20].to_string());
-            if line[17..20] != *chosen {
+            let chosen = chosen_residue.entry(line[21..27].to_string()).or_insert_with(|| line[17..21].to_string());
+            if line[17..21] != *chosen {
                 continue;
             }
             let site = (line[12..16].to_string(), line[17..27].to_string());
@@ -142,7 +142,10 @@ pub fn parse_at(text: &str, file: &str, skipped: usize) -> Result<Molecule, Mole
             line: n,
             site,
             name: text(13, 16),
-            resname: text(18, 20),
+            // Columns 18-20 in the standard; CHARMM and NAMD write four
+            // characters (TIP3, POPC) through column 21, as VMD and
+            // MDAnalysis read them.
+            resname: text(18, 21),
             resid: residue_number(cols(line, 23, 26).unwrap_or("")),
             icode: text(27, 27),
             segment: text(73, 76),

@@ -174,6 +174,14 @@ pub fn spawn(scene: &Scene, rays: &[GpuRay], hits: &[Option<(f64, DVec3)>]) -> A
         let start = o + t * u + eps * facing;
         let mut cast = |dir: DVec3, reach: f64, kind: Kind| {
             let (t0, t1) = scene.bounds.clip_ray(start, dir).unwrap_or((1.0, 0.0));
+            // What clipping removed casts no shadow and hides nothing: the
+            // ray keeps only its part on the kept side (none from a cap
+            // towards the camera's side).
+            let (t0, t1) = if scene.camera.clip.is_empty() || t0 > t1 {
+                (t0, t1)
+            } else {
+                scene.camera.clip.interval(&scene.camera, start, dir, (t0, t1)).map_or((1.0, 0.0), |(a, b, _)| (a, b))
+            };
             let f = |v: DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
             let batch = match kind {
                 Kind::Shadow(j) => &mut batches[j],

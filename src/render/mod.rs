@@ -927,10 +927,22 @@ impl Renderer {
     /// scene as posed now (kept until the scene or the frame changes) when
     /// camera rays marched by `method` with `options` would use them.
     /// Returns whether they did.
+    /// Marks the tile lists as built for no camera.
+    fn forget_tiles(&mut self) {
+        if let Some(t) = self.tiles.as_mut() {
+            t.frame = None;
+        }
+    }
+
     pub fn prepare_camera(&mut self, method: Method, options: &MarchOptions, camera: &scene::Camera, width: u32, height: u32) -> Result<bool> {
         // The lists bin what each tile's rays meet through the eye: a
         // perspective camera's only (an orthographic one walks the grid).
-        if !self.tiles_apply(method, options) || camera.projection != scene::Projection::Perspective {
+        if !self.tiles_apply(method, options) {
+            return Ok(false);
+        }
+        if camera.projection != scene::Projection::Perspective {
+            // Lists of an earlier camera must not serve this one.
+            self.forget_tiles();
             return Ok(false);
         }
         let frame = (camera.clone(), width, height);
@@ -942,7 +954,9 @@ impl Renderer {
         let prims = primitives_with_radii(&self.scene, &index::index_radii(&self.scene));
         let lists = tiles::TileLists::build(&prims, grid.groups as u32, camera, width, height);
         let Ok(steps) = slice_steps(FoldCost::tiles(&grid, &lists), self.scene.lights.len()) else {
-            // A list longer than a dispatch's loop budget: the grid.
+            // A list longer than a dispatch's loop budget: the grid (and
+            // no earlier camera's lists).
+            self.forget_tiles();
             return Ok(false);
         };
         let build_ns = started.elapsed().as_secs_f64() * 1e9;

@@ -68,20 +68,22 @@ impl Outline {
     /// `range` long.
     pub fn mask(&self, depth: &[f64], w: u32, h: u32, range: f64) -> Vec<bool> {
         let threshold = self.jump * range;
-        let r = self.width as i64;
-        let at = |x: i64, y: i64| depth[(y * i64::from(w) + x) as usize];
-        let mut out = vec![false; depth.len()];
-        for y in 0..i64::from(h) {
-            for x in 0..i64::from(w) {
-                let z = at(x, y);
-                if !z.is_finite() {
-                    continue;
-                }
-                let (x0, x1, y0, y1) = ((x - r).max(0), (x + r).min(i64::from(w) - 1), (y - r).max(0), (y + r).min(i64::from(h) - 1));
-                out[(y * i64::from(w) + x) as usize] = (y0..=y1).any(|v| (x0..=x1).any(|u| at(u, v) - z > threshold));
+        let (w, h, r) = (w as usize, h as usize, self.width as usize);
+        // A pixel is outlined when the farthest depth within `width` of it
+        // (a box, taken as a max along rows, then along columns) is beyond
+        // its own by more than the threshold.
+        let mut rows = vec![f64::NEG_INFINITY; depth.len()];
+        for y in 0..h {
+            for x in 0..w {
+                rows[y * w + x] = depth[y * w + x.saturating_sub(r)..=y * w + (x + r).min(w - 1)].iter().copied().fold(f64::NEG_INFINITY, f64::max);
             }
         }
-        out
+        (0..depth.len())
+            .map(|i| {
+                let (x, y, z) = (i % w, i / w, depth[i]);
+                z.is_finite() && (y.saturating_sub(r)..=(y + r).min(h - 1)).map(|v| rows[v * w + x]).fold(f64::NEG_INFINITY, f64::max) - z > threshold
+            })
+            .collect()
     }
 }
 

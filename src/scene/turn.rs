@@ -87,13 +87,13 @@ impl Camera {
 
     /// The eye `factor` times closer to the target.
     pub fn zoomed(&self, factor: f64) -> Camera {
-        // An orthographic view shows the same at any distance: its
-        // height shrinks instead.
-        let projection = match self.projection {
-            Projection::Orthographic { height } => Projection::Orthographic { height: height / factor },
-            p => p,
-        };
-        Camera { eye: self.target + (self.eye - self.target) / factor, projection, ..self.clone() }
+        // An orthographic view shows the same at any distance: its height
+        // shrinks instead, and the eye stays (moving it would only cut the
+        // front away, its rays starting at the eye's plane).
+        match self.projection {
+            Projection::Orthographic { height } => Camera { projection: Projection::Orthographic { height: height / factor }, ..self.clone() },
+            Projection::Perspective => Camera { eye: self.target + (self.eye - self.target) / factor, ..self.clone() },
+        }
     }
 }
 
