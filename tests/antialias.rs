@@ -26,6 +26,24 @@ fn scene_text(method: &str) -> String {
     )
 }
 
+/// The edge's position in pixels from the left of the 40x8 image of the
+/// scene at `path`: the plane's depth from the f64 reference field by
+/// bisection, then a pinhole looking down -z at it (screen x is linear in
+/// world x).
+fn edge_in_pixels(path: &std::path::Path) -> f64 {
+    let (w, h) = (40u32, 8u32);
+    let scene = Scene::load(path).unwrap();
+    let field = isomarch::field::Field::new(&scene);
+    let (mut lo, mut hi) = (0.0, 1.9);
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        if field.value(DVec3::new(0.0, 0.0, mid)) > 0.0 { lo = mid } else { hi = mid }
+    }
+    let z = 0.5 * (lo + hi);
+    let half_w = (15f64.to_radians()).tan() * f64::from(w) / f64::from(h);
+    (EDGE / (10.0 - z) / half_w + 1.0) * f64::from(w) / 2.0
+}
+
 #[test]
 fn an_edges_pixels_hold_its_analytic_coverage_within_one_over_n() {
     let dir = scratch("antialias");
@@ -33,19 +51,7 @@ fn an_edges_pixels_hold_its_analytic_coverage_within_one_over_n() {
     for method in ["quadratic-taylor", "segment", "sphere", "linear-taylor", "quadratic"] {
         let path = dir.join(format!("{method}.ron"));
         std::fs::write(&path, scene_text(method)).unwrap();
-        let scene = Scene::load(&path).unwrap();
-        // The surface's depth, from the f64 reference field by bisection.
-        let field = isomarch::field::Field::new(&scene);
-        let (mut lo, mut hi) = (0.0, 1.9);
-        for _ in 0..80 {
-            let mid = 0.5 * (lo + hi);
-            if field.value(DVec3::new(0.0, 0.0, mid)) > 0.0 { lo = mid } else { hi = mid }
-        }
-        let z = 0.5 * (lo + hi);
-        // A pinhole looking down -z at the plane z: screen x is linear in
-        // world x. The edge's position in pixels from the left.
-        let half_w = (15f64.to_radians()).tan() * f64::from(w) / f64::from(h);
-        let edge = (EDGE / (10.0 - z) / half_w + 1.0) * f64::from(w) / 2.0;
+        let edge = edge_in_pixels(&path);
         for n in [1u32, 4, 16] {
             let exr_path = dir.join(format!("{method}-{n}.exr"));
             run_ok(&["render", path.to_str().unwrap(), "-o", exr_path.to_str().unwrap(), "--samples", &n.to_string()]);
@@ -129,16 +135,7 @@ fn a_transparent_background_holds_the_edges_coverage_in_alpha() {
     let (w, h) = (40u32, 8u32);
     let path = dir.join("edge.ron");
     std::fs::write(&path, scene_text("quadratic-taylor")).unwrap();
-    let scene = Scene::load(&path).unwrap();
-    let field = isomarch::field::Field::new(&scene);
-    let (mut lo, mut hi) = (0.0, 1.9);
-    for _ in 0..80 {
-        let mid = 0.5 * (lo + hi);
-        if field.value(DVec3::new(0.0, 0.0, mid)) > 0.0 { lo = mid } else { hi = mid }
-    }
-    let z = 0.5 * (lo + hi);
-    let half_w = (15f64.to_radians()).tan() * f64::from(w) / f64::from(h);
-    let edge = (EDGE / (10.0 - z) / half_w + 1.0) * f64::from(w) / 2.0;
+    let edge = edge_in_pixels(&path);
     let png = dir.join("alpha.png");
     let exr = dir.join("alpha.exr");
     for out in [&png, &exr] {

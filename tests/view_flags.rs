@@ -72,21 +72,27 @@ fn a_turn_of_the_camera_is_the_world_turned_back() {
 /// vertical field of view φ on H pixels, is a disc of radius
 /// tan(asin(ρ/d)) / tan(φ/2) · H/2 pixels: by its covered area, within a
 /// pixel, as given, with `--zoom 2` (d halved) and with `--fov 20`.
+/// A compact blob of support `radius` at the origin (iso 0.5, black
+/// background) seen by `camera` (a camera block's fields), lit by `lights`
+/// (a `lights: [..],` line, or nothing).
+fn ball_scene(camera: &str, radius: f64, lights: &str) -> String {
+    format!(
+        r#"Scene(
+    camera: ({camera}),
+    background: (0.0, 0.0, 0.0),
+    {lights}
+    iso: 0.5,
+    marching: (method: "quadratic-taylor", min_step: 0.001),
+    groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: {radius:?}))])],
+)"#
+    )
+}
+
 #[test]
 fn zoom_and_field_of_view_size_a_spheres_disc() {
     let dir = scratch("view-zoom");
     let path = dir.join("ball.ron");
-    std::fs::write(
-        &path,
-        r#"Scene(
-    camera: (eye: (0.0, 0.0, 12.0), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96)),
-    background: (0.0, 0.0, 0.0),
-    iso: 0.5,
-    marching: (method: "quadratic-taylor", min_step: 0.001),
-    groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))])],
-)"#,
-    )
-    .unwrap();
+    std::fs::write(&path, ball_scene("eye: (0.0, 0.0, 12.0), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96)", 2.0, "")).unwrap();
     let rho = 2.0 * (1.0 - 0.5f64.cbrt()).sqrt();
     for (flags, d, fov) in [(&[][..], 12.0f64, 30.0f64), (&["--zoom", "2"][..], 6.0, 30.0), (&["--fov", "20"][..], 12.0, 20.0)] {
         let png = dir.join("ball.png");
@@ -153,19 +159,8 @@ fn an_orthographic_view_draws_a_sphere_its_size_at_any_distance() {
     let rho = 2.0 * (1.0 - 0.5f64.cbrt()).sqrt();
     let ball = |d: f64, projection: &str| -> std::path::PathBuf {
         let path = dir.join(format!("ball-{d}-{}.ron", projection.len()));
-        std::fs::write(
-            &path,
-            format!(
-                r#"Scene(
-    camera: (eye: (0.0, 0.0, {d:.1}), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96){projection}),
-    background: (0.0, 0.0, 0.0),
-    iso: 0.5,
-    marching: (method: "quadratic-taylor", min_step: 0.001),
-    groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0))])],
-)"#
-            ),
-        )
-        .unwrap();
+        let camera = format!("eye: (0.0, 0.0, {d:.1}), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96){projection}");
+        std::fs::write(&path, ball_scene(&camera, 2.0, "")).unwrap();
         path
     };
     let radius = |png: &std::path::Path| -> f64 {
@@ -284,18 +279,8 @@ fn depth_cueing_blends_a_tilted_plane_by_its_depth() {
 fn a_clipped_sphere_shows_its_cap_on_the_cutting_plane() {
     let dir = scratch("view-clip");
     let path = dir.join("ball.ron");
-    std::fs::write(
-        &path,
-        r#"Scene(
-    camera: (eye: (0.0, 0.0, 12.0), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96)),
-    background: (0.0, 0.0, 0.0),
-    lights: [(direction: (0.3, 0.8, 0.5))],
-    iso: 0.5,
-    marching: (method: "quadratic-taylor", min_step: 0.001),
-    groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 3.0))])],
-)"#,
-    )
-    .unwrap();
+    let camera = "eye: (0.0, 0.0, 12.0), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96)";
+    std::fs::write(&path, ball_scene(camera, 3.0, "lights: [(direction: (0.3, 0.8, 0.5))],")).unwrap();
     let exr = dir.join("cut.exr");
     isomarch(["render", path.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--clip", "near:12", "--aov", "depth,normal"]).ok();
     let image = exr::prelude::read_all_flat_layers_from_file(&exr).unwrap();
