@@ -293,14 +293,34 @@ class Renderer:
         method: Optional[str] = None,
         time: float = 0.0,
         samples: Optional[int] = None,
+        *,
+        depth_cue: Optional[str] = None,
+        outline: Optional[int] = None,
+        outline_color: Optional[str] = None,
+        outline_jump: Optional[float] = None,
+        transparent_background: bool = False,
     ) -> Image:
         """Renders ``scene`` at scene ``time`` (seconds), ``size`` (width,
         height; default the scene camera's), with ``method`` (default the
         scene's) and ``samples`` rays per pixel (anti-aliasing; default the
-        scene camera's): the same pixels as ``isomarch render``."""
+        scene camera's): the same pixels as ``isomarch render``, with its
+        ``--depth-cue`` (``"START:END"``), ``--outline`` (a width),
+        ``--outline-color``, ``--outline-jump`` and
+        ``--transparent-background`` (``rgba``'s alpha is then each
+        pixel's coverage) as keywords."""
         width, height = scene.resolution if size is None else size
         raw = self._native.render(
-            scene._native, int(width), int(height), method, float(time), None if samples is None else int(samples)
+            scene._native,
+            int(width),
+            int(height),
+            method,
+            float(time),
+            None if samples is None else int(samples),
+            depth_cue,
+            None if outline is None else int(outline),
+            outline_color,
+            None if outline_jump is None else float(outline_jump),
+            bool(transparent_background),
         )
         return Image(raw, int(width), int(height))
 

@@ -69,7 +69,18 @@ class NativeRenderer:
     device: str
     def __init__(self, device: Optional[str] = None, timeout: Optional[float] = None) -> None: ...
     def render(
-        self, scene: NativeScene, width: int, height: int, method: Optional[str], time: float, samples: Optional[int]
+        self,
+        scene: NativeScene,
+        width: int,
+        height: int,
+        method: Optional[str],
+        time: float,
+        samples: Optional[int],
+        depth_cue: Optional[str],
+        outline: Optional[int],
+        outline_color: Optional[str],
+        outline_jump: Optional[float],
+        transparent_background: bool,
     ) -> dict: ...
     def bench(
         self,

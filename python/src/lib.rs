@@ -293,9 +293,18 @@ fn png_bytes<'py>(py: Python<'py>, rgba: PyReadonlyArray1<'_, u8>, width: u32, h
     if rgba.len() != (width * height * 4) as usize {
         return Err(IsomarchError::new_err(format!("{} bytes for a {width}x{height} RGBA image", rgba.len())));
     }
-    let rgb: Vec<u8> = rgba.iter().enumerate().filter(|(i, _)| i % 4 != 3).map(|(_, v)| *v).collect();
-    let img = image::RgbImage::from_raw(width, height, rgb).ok_or_else(|| IsomarchError::new_err("image size"))?;
-    let bytes = isomarch::output::png_bytes(&img).map_err(raise)?;
+    // Opaque: RGB, as `isomarch render` writes; with any alpha below 255
+    // (a transparent background): RGBA, as it writes then.
+    let bytes = if rgba.iter().skip(3).step_by(4).all(|&a| a == 255) {
+        let rgb: Vec<u8> = rgba.iter().enumerate().filter(|(i, _)| i % 4 != 3).map(|(_, v)| *v).collect();
+        let img = image::RgbImage::from_raw(width, height, rgb).ok_or_else(|| IsomarchError::new_err("image size"))?;
+        isomarch::output::png_bytes(&img).map_err(raise)?
+    } else {
+        let img = image::RgbaImage::from_raw(width, height, rgba.to_vec()).ok_or_else(|| IsomarchError::new_err("image size"))?;
+        let mut out = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut out, image::ImageFormat::Png).map_err(raise)?;
+        out.into_inner()
+    };
     Ok(PyBytes::new(py, &bytes))
 }
 
@@ -342,8 +351,15 @@ impl NativeRenderer {
         method: Option<&str>,
         time: f64,
         samples: Option<u32>,
+        depth_cue: Option<String>,
+        outline: Option<u32>,
+        outline_color: Option<String>,
+        outline_jump: Option<f64>,
+        transparent_background: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         isomarch::checks::size(width, height).map_err(raise)?;
+        let effects = isomarch::render::offscreen::Effects::from_choices(depth_cue.as_deref(), outline, outline_color.as_deref(), outline_jump)
+            .map_err(raise)?;
         let mut posed = scene.scene.at_time(isomarch::checks::time(time).map_err(raise)?);
         if let Some(m) = method {
             posed.marching.method = isomarch::checks::method(m).map_err(raise)?;
@@ -353,14 +369,21 @@ impl NativeRenderer {
         if let Some(n) = samples {
             job.samples = isomarch::checks::samples(n).map_err(raise)?;
         }
+        job.effects = effects;
+        let background = job.scene.background;
         let ctx = Arc::clone(&self.ctx);
         let isomarch::render::offscreen::FrameReport { frame, march: stats, .. } =
             py.detach(move || render_frame_indexed(&ctx, &job)).map_err(raise)?;
-        let shaded = frame.shaded();
-        let mut rgba = Vec::with_capacity(frame.pixels.len() * 4);
-        for p in shaded.pixels() {
-            rgba.extend_from_slice(&[p[0], p[1], p[2], 255]);
-        }
+        let rgba = if transparent_background {
+            // Alpha the coverage, as `render --transparent-background` writes it.
+            frame.shaded_rgba([background.x as f32, background.y as f32, background.z as f32]).into_raw()
+        } else {
+            let mut rgba = Vec::with_capacity(frame.pixels.len() * 4);
+            for p in frame.shaded().pixels() {
+                rgba.extend_from_slice(&[p[0], p[1], p[2], 255]);
+            }
+            rgba
+        };
         let depth: Vec<f32> = frame.pixels.iter().map(|p| if p.counts[3] & FLAG_HIT != 0 { p.hit[3] } else { f32::INFINITY }).collect();
         let steps: Vec<u32> = frame.steps();
         let normals: Vec<f32> = frame.pixels.iter().flat_map(|p| [p.hit[0], p.hit[1], p.hit[2]]).collect();

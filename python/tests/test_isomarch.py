@@ -370,3 +370,22 @@ def test_a_viewed_scene_renders_as_the_clis_view_flags(renderer, tmp_path):
     # The same reason, named for the flag on the command line and for the keyword in Python.
     reason = str(e.value)[len("turn: "):]
     assert str(e.value).startswith("turn: ") and reason in message, (str(e.value), message)
+
+
+def test_depth_cue_outlines_and_a_transparent_background_equal_the_clis(renderer, tmp_path):
+    flags = ["--depth-cue", "0:0.7", "--outline", "2", "--outline-color", "white", "--samples", "4"]
+    cli("render", PDB, "-o", tmp_path / "look.png", "--size", "40x40", *flags)
+    scene = isomarch.Scene.from_molecule(PDB)
+    look = renderer.render(scene, size=(40, 40), samples=4, depth_cue="0:0.7", outline=2, outline_color="white")
+    assert look.png() == (tmp_path / "look.png").read_bytes()
+    assert look.png() != renderer.render(scene, size=(40, 40), samples=4).png(), "the effects changed nothing"
+    cli("render", PDB, "-o", tmp_path / "clear.png", "--size", "40x40", "--samples", "4", "--transparent-background")
+    clear = renderer.render(scene, size=(40, 40), samples=4, transparent_background=True)
+    assert clear.png() == (tmp_path / "clear.png").read_bytes()
+    alpha = clear.rgba[..., 3]
+    assert (alpha == 0).any() and (alpha == 255).any() and ((alpha > 0) & (alpha < 255)).any(), "no edge with partial coverage"
+    message = cli("render", PDB, "-o", tmp_path / "x.png", "--outline", "0", check=False).stderr.strip()
+    assert len(message.splitlines()) == 1, message
+    with pytest.raises(isomarch.IsomarchError) as e:
+        renderer.render(scene, size=(8, 8), outline=0)
+    assert str(e.value) == message[len("error: "):]

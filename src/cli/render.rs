@@ -10,7 +10,7 @@ use isomarch::checks;
 use isomarch::molecule::playback::Stager;
 use isomarch::open::Input;
 use isomarch::output::{Aov, ColorBar, FileFormat};
-use isomarch::render::offscreen::{DepthCue, Effects, Outline, RenderJob, render_to_files};
+use isomarch::render::offscreen::{Effects, RenderJob, render_to_files};
 use isomarch::scene::Scene;
 
 use super::args::{GpuArgs, PlayArgs, SceneFlags};
@@ -149,6 +149,8 @@ impl TryFrom<RenderArgs> for Plan {
     type Error = anyhow::Error;
 
     fn try_from(args: RenderArgs) -> Result<Plan> {
+        // The look's flags are checked before any file is read.
+        effects(&args)?;
         let mut input = args.flags.open(&args.scene, args.trajectory.as_deref(), &args.play)?;
         let legend = match args.legend {
             false => None,
@@ -273,25 +275,7 @@ impl Batch {
 
 /// Depth cueing and outlines from the flags, checked.
 fn effects(args: &RenderArgs) -> Result<Effects> {
-    let depth_cue = args.depth_cue.as_deref().map(DepthCue::parse).transpose()?;
-    if args.outline.is_none() && (args.outline_color.is_some() || args.outline_jump.is_some()) {
-        bail!("--outline-color and --outline-jump shape the outlines of --outline, which was not given");
-    }
-    let outline = match args.outline {
-        None => None,
-        Some(width) => {
-            if !(1..=64).contains(&width) {
-                bail!("--outline takes a width of 1 to 64 pixels, got {width}");
-            }
-            let jump = args.outline_jump.unwrap_or(0.03);
-            if !(jump.is_finite() && jump > 0.0 && jump < 1.0) {
-                bail!("--outline-jump is a fraction of the scene's depth range, in (0, 1), got {jump}");
-            }
-            let color = args.outline_color.as_deref().map(|c| checks::color("--outline-color", c)).transpose()?.unwrap_or([0.0; 3]);
-            Some(Outline { width, color, jump })
-        }
-    };
-    Ok(Effects { depth_cue, outline })
+    Effects::from_choices(args.depth_cue.as_deref(), args.outline, args.outline_color.as_deref(), args.outline_jump)
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {

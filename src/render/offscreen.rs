@@ -49,6 +49,33 @@ pub struct Effects {
     pub outline: Option<Outline>,
 }
 
+impl Effects {
+    /// The effects a user asks for (the command line's `--depth-cue`,
+    /// `--outline`, `--outline-color`, `--outline-jump`; Python's keywords
+    /// of the same names), checked, each problem one line naming its flag.
+    pub fn from_choices(depth_cue: Option<&str>, outline: Option<u32>, outline_color: Option<&str>, outline_jump: Option<f64>) -> Result<Effects> {
+        let depth_cue = depth_cue.map(DepthCue::parse).transpose()?;
+        if outline.is_none() && (outline_color.is_some() || outline_jump.is_some()) {
+            anyhow::bail!("--outline-color and --outline-jump shape the outlines of --outline, which was not given");
+        }
+        let outline = match outline {
+            None => None,
+            Some(width) => {
+                if !(1..=64).contains(&width) {
+                    anyhow::bail!("--outline takes a width of 1 to 64 pixels, got {width}");
+                }
+                let jump = outline_jump.unwrap_or(0.03);
+                if !(jump.is_finite() && jump > 0.0 && jump < 1.0) {
+                    anyhow::bail!("--outline-jump is a fraction of the scene's depth range, in (0, 1), got {jump}");
+                }
+                let color = outline_color.map(|c| crate::checks::color("--outline-color", c)).transpose()?.unwrap_or([0.0; 3]);
+                Some(Outline { width, color, jump })
+            }
+        };
+        Ok(Effects { depth_cue, outline })
+    }
+}
+
 /// Outlines (ChimeraX's `graphics silhouettes`): a hit pixel is drawn in
 /// `color` when a pixel at most `width` pixels away (in x and in y) is
 /// farther by more than `jump` times the scene's depth range, or missed

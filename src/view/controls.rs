@@ -9,7 +9,7 @@ use winit::keyboard::{Key, NamedKey};
 
 use super::ViewOptions;
 use crate::method::Method;
-use crate::scene::Scene;
+use crate::scene::{Projection, Scene};
 
 /// What a key asks for.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,7 +80,15 @@ impl Orbit {
         let pitch = (elevation + self.pitch).clamp(-limit, limit) - elevation;
         let right = turned.cross(up).normalize_or_zero();
         let pitched = if right == DVec3::ZERO { turned } else { DQuat::from_axis_angle(right, pitch) * turned };
-        cam.eye = cam.target + pitched * self.zoom.exp();
+        match &mut cam.projection {
+            // An orthographic view zooms by its height (moving the eye
+            // would only cut the front away).
+            Projection::Orthographic { height } => {
+                cam.eye = cam.target + pitched;
+                *height *= self.zoom.exp();
+            }
+            Projection::Perspective => cam.eye = cam.target + pitched * self.zoom.exp(),
+        }
     }
 }
 
@@ -185,7 +193,22 @@ impl Camera {
 mod tests {
     use winit::keyboard::{Key, NamedKey, SmolStr};
 
-    use super::Control;
+    use super::{Control, Orbit};
+    use crate::scene::Projection;
+
+    #[test]
+    fn the_wheel_zooms_an_orthographic_view_by_its_height() {
+        let mut scene = crate::scene::Scene::parse(
+            "Scene(camera: (eye: (0.0, 0.0, 10.0), target: (0.0, 0.0, 0.0), projection: Orthographic(height: 4.0)), iso: 0.5, \
+             groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 1.0))])])",
+            "t",
+        )
+        .unwrap();
+        Orbit { zoom: -0.5, ..Orbit::default() }.apply(&mut scene);
+        assert!((scene.camera.eye.z - 10.0).abs() < 1e-12, "the eye moved: {}", scene.camera.eye);
+        let Projection::Orthographic { height } = scene.camera.projection else { panic!("not orthographic") };
+        assert!((height - 4.0 * (-0.5f64).exp()).abs() < 1e-12, "height {height}");
+    }
 
     #[test]
     fn keys_map_to_their_controls() {
