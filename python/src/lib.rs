@@ -358,8 +358,8 @@ impl NativeRenderer {
         transparent_background: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         isomarch::checks::size(width, height).map_err(raise)?;
-        let effects = isomarch::render::offscreen::Effects::from_choices(depth_cue.as_deref(), outline, outline_color.as_deref(), outline_jump)
-            .map_err(raise)?;
+        let color = outline_color.as_deref().map(|c| isomarch::checks::color("--outline-color", c)).transpose().map_err(raise)?;
+        let effects = isomarch::render::offscreen::Effects::from_choices(depth_cue.as_deref(), outline, color, outline_jump).map_err(raise)?;
         let mut posed = scene.scene.at_time(isomarch::checks::time(time).map_err(raise)?);
         if let Some(m) = method {
             posed.marching.method = isomarch::checks::method(m).map_err(raise)?;

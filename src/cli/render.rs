@@ -275,7 +275,8 @@ impl Batch {
 
 /// Depth cueing and outlines from the flags, checked.
 fn effects(args: &RenderArgs) -> Result<Effects> {
-    Effects::from_choices(args.depth_cue.as_deref(), args.outline, args.outline_color.as_deref(), args.outline_jump)
+    let color = args.outline_color.as_deref().map(|c| checks::color("--outline-color", c)).transpose()?;
+    Effects::from_choices(args.depth_cue.as_deref(), args.outline, color, args.outline_jump)
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {

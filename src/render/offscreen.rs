@@ -51,9 +51,15 @@ pub struct Effects {
 
 impl Effects {
     /// The effects a user asks for (the command line's `--depth-cue`,
-    /// `--outline`, `--outline-color`, `--outline-jump`; Python's keywords
-    /// of the same names), checked, each problem one line naming its flag.
-    pub fn from_choices(depth_cue: Option<&str>, outline: Option<u32>, outline_color: Option<&str>, outline_jump: Option<f64>) -> Result<Effects> {
+    /// `--outline`, `--outline-color` (parsed by `checks::color`),
+    /// `--outline-jump`; Python's keywords of the same names), checked, each
+    /// problem one line naming its flag.
+    pub fn from_choices(
+        depth_cue: Option<&str>,
+        outline: Option<u32>,
+        outline_color: Option<[f64; 3]>,
+        outline_jump: Option<f64>,
+    ) -> Result<Effects> {
         let depth_cue = depth_cue.map(DepthCue::parse).transpose()?;
         if outline.is_none() && (outline_color.is_some() || outline_jump.is_some()) {
             anyhow::bail!("--outline-color and --outline-jump shape the outlines of --outline, which was not given");
@@ -68,7 +74,7 @@ impl Effects {
                 if !(jump.is_finite() && jump > 0.0 && jump < 1.0) {
                     anyhow::bail!("--outline-jump is a fraction of the scene's depth range, in (0, 1), got {jump}");
                 }
-                let color = outline_color.map(|c| crate::checks::color("--outline-color", c)).transpose()?.unwrap_or([0.0; 3]);
+                let color = outline_color.unwrap_or([0.0; 3]);
                 Some(Outline { width, color, jump })
             }
         };
