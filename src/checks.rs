@@ -185,11 +185,7 @@ pub fn color(flag: &str, text: &str) -> Result<[f64; 3]> {
     let Ok(c) = csscolorparser::parse(text) else {
         bail!("{flag} {text:?} is no colour: give a name (white, black, navy), #rrggbb, or linear r,g,b in [0, 1]");
     };
-    let linear = |s: f32| {
-        let s = f64::from(s);
-        if s <= 0.04045 { s / 12.92 } else { ((s + 0.055) / 1.055).powf(2.4) }
-    };
-    Ok([linear(c.r), linear(c.g), linear(c.b)])
+    Ok([c.r, c.g, c.b].map(|s| crate::output::linear_of_srgb(f64::from(s))))
 }
 
 /// `--preview-ms` of `view`.

@@ -231,10 +231,7 @@ fn depth_cueing_blends_a_tilted_plane_by_its_depth() {
     let (w, h) = (48u32, 48u32);
     let half = 20f64.to_radians().tan();
     let bg = [0.9f32, 0.5, 0.1];
-    let linear = |c: u8| {
-        let v = f64::from(c) / 255.0;
-        if v <= 0.04045 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
-    };
+    let linear = isomarch::molecule::elements::linear;
     let (mut checked, mut blended) = (0, 0);
     for y in 0..h {
         for x in 0..w {

@@ -301,9 +301,7 @@ fn png_bytes<'py>(py: Python<'py>, rgba: PyReadonlyArray1<'_, u8>, width: u32, h
         isomarch::output::png_bytes(&img).map_err(raise)?
     } else {
         let img = image::RgbaImage::from_raw(width, height, rgba.to_vec()).ok_or_else(|| IsomarchError::new_err("image size"))?;
-        let mut out = std::io::Cursor::new(Vec::new());
-        img.write_to(&mut out, image::ImageFormat::Png).map_err(raise)?;
-        out.into_inner()
+        isomarch::output::png_bytes(&img).map_err(raise)?
     };
     Ok(PyBytes::new(py, &bytes))
 }

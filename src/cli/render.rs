@@ -150,7 +150,7 @@ impl TryFrom<RenderArgs> for Plan {
 
     fn try_from(args: RenderArgs) -> Result<Plan> {
         // The look's flags are checked before any file is read.
-        effects(&args)?;
+        let effects = effects(&args)?;
         let mut input = args.flags.open(&args.scene, args.trajectory.as_deref(), &args.play)?;
         let legend = match args.legend {
             false => None,
@@ -175,13 +175,12 @@ impl TryFrom<RenderArgs> for Plan {
                     (stager.scene(range.start as usize)?.0, Some(stager))
                 }
             };
-            return Ok(Plan::Batch(Batch::new(args, range, scene, stager, legend)?));
+            return Ok(Plan::Batch(Batch::new(args, range, scene, stager, legend, effects)?));
         }
         let scene = input.scene(args.play.frame)?;
         let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
         let scene = scene.at_time(checks::time(args.batch.time)?);
         let method = scene.marching.method;
-        let effects = effects(&args)?;
         let job = RenderJob {
             heatmap: args.heatmap,
             steps_max: args.steps_max,
@@ -202,15 +201,15 @@ impl TryFrom<RenderArgs> for Plan {
 }
 
 impl Batch {
-    fn new(args: RenderArgs, range: isomarch::batch::FrameRange, scene: Scene, stager: Option<Stager>, legend: Option<ColorBar>) -> Result<Batch> {
+    fn new(
+        args: RenderArgs,
+        range: isomarch::batch::FrameRange,
+        scene: Scene,
+        stager: Option<Stager>,
+        legend: Option<ColorBar>,
+        effects: Effects,
+    ) -> Result<Batch> {
         let size = args.size.unwrap_or((scene.camera.width, scene.camera.height));
-        let effects = effects(&args)?;
-        if args.legend && args.transparent_background {
-            bail!("--legend and --transparent-background cannot be drawn together: the bar needs a background");
-        }
-        if args.legend && FileFormat::of("-o", &args.output, FileFormat::IMAGE)? != FileFormat::Png {
-            bail!("--legend draws the colour bar on PNG images; -o {} is not one", args.output.display());
-        }
         let RenderArgs { output, batch, .. } = args;
         if args.heatmap.is_some() || !args.aov.is_empty() || args.stats.is_some() || args.aov_output.is_some() || args.steps_max.is_some() {
             bail!(
@@ -220,7 +219,6 @@ impl Batch {
         let fps = checks::fps(batch.fps)?;
         let pattern = output.to_string_lossy().into_owned();
         isomarch::batch::frame_path(&pattern, range.start)?;
-        FileFormat::of("-o", &output, FileFormat::IMAGE)?;
         let shard = isomarch::batch::Shard::resolve(batch.shard.as_deref(), batch.shard_count, |k| std::env::var(k).ok())?;
         let csv = batch.csv.unwrap_or_else(|| {
             output.parent().filter(|p| !p.as_os_str().is_empty()).map_or_else(|| PathBuf::from("frames.csv"), |p| p.join("frames.csv"))
@@ -234,6 +232,9 @@ impl Batch {
             effects,
             ..RenderJob::new(scene, method, size, output, args.flags.gpu.timeout()?)
         };
+        // The pattern's format, and a legend only on PNG with a background,
+        // as a single frame's outputs are checked.
+        job.outputs()?;
         isomarch::render::light::check_method(&job.scene, job.method)?;
         Ok(Batch { job, stager, pattern, range, fps, shard, skip_existing: batch.skip_existing, csv, gpu: args.flags.gpu })
     }

@@ -177,8 +177,7 @@ pub fn radius(symbol: &str) -> Option<f64> {
 
 /// An sRGB component 0-255 in linear light (the scene's colours are linear).
 pub fn linear(c: u8) -> f64 {
-    let v = f64::from(c) / 255.0;
-    if v <= 0.04045 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
+    crate::output::linear_of_srgb(f64::from(c) / 255.0)
 }
 
 /// The element's colour (any case, as [`radius`]), linear RGB.

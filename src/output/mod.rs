@@ -81,6 +81,12 @@ impl Frame {
     }
 }
 
+/// An sRGB component in [0, 1] in linear light ([`srgb`]'s inverse,
+/// before its 8-bit rounding).
+pub fn linear_of_srgb(s: f64) -> f64 {
+    if s <= 0.04045 { s / 12.92 } else { ((s + 0.055) / 1.055).powf(2.4) }
+}
+
 /// Linear [0, 1] to 8-bit sRGB.
 pub fn srgb(linear: f32) -> u8 {
     let c = linear.clamp(0.0, 1.0);
@@ -153,11 +159,7 @@ pub fn shaded_bytes(frame: &Frame, format: FileFormat, aovs: &[Aov], look: Look)
         FileFormat::Png => match (look.legend, look.transparent) {
             (Some(_), Some(_)) => bail!("--legend and --transparent-background cannot be drawn together"),
             (Some(bar), None) => png_bytes(&with_color_bar(&frame.shaded(), bar)),
-            (None, Some(bg)) => {
-                let mut out = Cursor::new(Vec::new());
-                frame.shaded_rgba(bg).write_to(&mut out, image::ImageFormat::Png).context("encoding PNG")?;
-                Ok(out.into_inner())
-            }
+            (None, Some(bg)) => png_bytes(&frame.shaded_rgba(bg)),
             (None, None) => png_bytes(&frame.shaded()),
         },
         FileFormat::Exr => exr_layers(frame, true, aovs, look.transparent),
@@ -165,8 +167,11 @@ pub fn shaded_bytes(frame: &Frame, format: FileFormat, aovs: &[Aov], look: Look)
     }
 }
 
-/// Encodes an image as PNG bytes.
-pub fn png_bytes(img: &image::RgbImage) -> Result<Vec<u8>> {
+/// Encodes an image (RGB, or RGBA for a transparent background) as PNG bytes.
+pub fn png_bytes<P>(img: &image::ImageBuffer<P, Vec<u8>>) -> Result<Vec<u8>>
+where
+    P: image::PixelWithColorType<Subpixel = u8>,
+{
     let mut out = Cursor::new(Vec::new());
     img.write_to(&mut out, image::ImageFormat::Png).context("encoding PNG")?;
     Ok(out.into_inner())

@@ -369,18 +369,29 @@ pub fn march_image(
     for s in 0..n {
         let (rays, pixels) = camera_rays_through(&scene.camera, width, height, &scene.bounds, |p| subpixel(p, s, n, SAMPLE_SEED));
         let mut out = march_camera_frame(renderer, method, options, &rays, 0)?;
+        // Each ray's view depth (infinite on a miss), for the effects.
+        let view_depth: Vec<f64> = if depth_cue.is_some() || outline.is_some() {
+            out.results
+                .iter()
+                .zip(&rays)
+                .map(|(r, ray)| {
+                    if r.counts[3] & FLAG_HIT == 0 {
+                        return f64::INFINITY;
+                    }
+                    let ray = super::rays::Ray::from_gpu(ray);
+                    (ray.o + f64::from(r.hit[3]) * ray.d - scene.camera.eye).dot(forward)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         // Depth cueing, per sample (so anti-aliased edges blend as their
         // samples do), after the lights: toward the background with the
         // hit's depth along the view direction.
         if let Some(cue) = depth_cue {
-            for (r, ray) in out.results.iter_mut().zip(&rays) {
-                if r.counts[3] & FLAG_HIT == 0 {
-                    continue;
-                }
-                let ray = super::rays::Ray::from_gpu(ray);
-                let z = (ray.o + f64::from(r.hit[3]) * ray.d - scene.camera.eye).dot(forward);
+            let bg = scene.background.to_array();
+            for (r, &z) in out.results.iter_mut().zip(&view_depth).filter(|(_, z)| z.is_finite()) {
                 let f = cue.blend(z, depths);
-                let bg = scene.background.to_array();
                 for (c, b) in r.color.iter_mut().zip(bg) {
                     *c = (f64::from(*c) * (1.0 - f) + b * f) as f32;
                 }
@@ -390,12 +401,11 @@ pub fn march_image(
         light.add(&out.light);
         let mut frame = Frame::from_results(width, height, &out.results, &pixels);
         if let Some(outline) = outline {
-            // View depth per pixel, from each ray's hit.
+            // View depth per pixel.
             let mut depth = vec![f64::INFINITY; (width * height) as usize];
-            for ((r, ray), p) in out.results.iter().zip(&rays).zip(&pixels) {
-                if let (Some(p), true) = (p, r.counts[3] & FLAG_HIT != 0) {
-                    let ray = super::rays::Ray::from_gpu(ray);
-                    depth[*p as usize] = (ray.o + f64::from(r.hit[3]) * ray.d - scene.camera.eye).dot(forward);
+            for (&z, p) in view_depth.iter().zip(&pixels) {
+                if let Some(p) = p {
+                    depth[*p as usize] = z;
                 }
             }
             for (px, on) in frame.pixels.iter_mut().zip(outline.mask(&depth, width, height, depths.1 - depths.0)) {
