@@ -12,6 +12,7 @@ pub mod batch;
 pub mod bench;
 pub mod checks;
 pub mod field;
+pub mod frame_loop;
 pub mod generate;
 pub mod gpu;
 pub mod inputs;

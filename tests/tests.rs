@@ -23,6 +23,7 @@ mod layering;
 mod lighting;
 mod limits;
 mod marching;
+mod memory;
 mod molecules;
 mod optics;
 mod planes;

@@ -8,6 +8,7 @@ use clap::{Args, ValueEnum};
 use isomarch::bench;
 use isomarch::checks;
 use isomarch::method::Method;
+use isomarch::open::Input;
 use isomarch::output::{self, FileFormat, png_bytes, write_atomic};
 use isomarch::render::offscreen::{RenderJob, render_frame};
 use isomarch::scene::Scene;
@@ -56,7 +57,7 @@ pub struct BenchArgs {
     /// their step heatmaps side by side on one scale (like Figure 10).
     #[arg(long, value_name = "PNG")]
     heatmap_grid: Option<PathBuf>,
-    /// Image size of each heatmap panel.
+    /// Image size of each heatmap panel, and of the frame loop's frames.
     #[arg(long, value_parser = checks::parse_size, default_value = "256x256")]
     size: (u32, u32),
     /// Top of the shared heatmap scale (default 75, as in the paper).
@@ -69,6 +70,20 @@ pub struct BenchArgs {
     /// method and compared with the reference's answers ray by ray.
     #[arg(long)]
     any_hit: bool,
+    /// The frame loop instead of the protocol: N frames rendered offscreen
+    /// along a window's path (a still scene turned about the view's
+    /// vertical axis, 360 degrees over the N frames; a trajectory's frames
+    /// in order), at --size with the first of --methods, each image made
+    /// whole (rays, march, lights, samples, look) and none written. Prints
+    /// wall and GPU milliseconds per frame, frames per second, and the
+    /// bytes read back and uploaded and the fences waited per frame
+    /// (medians); --json writes every frame's figures.
+    #[arg(long, value_name = "N", conflicts_with_all = ["heatmap_grid", "any_hit", "repeat"])]
+    frames: Option<usize>,
+    /// Rays per pixel of the frame loop's frames (anti-aliasing, as
+    /// render's --samples; default: the scene's).
+    #[arg(long, value_name = "N", requires = "frames")]
+    samples: Option<u32>,
     #[command(flatten)]
     flags: SceneFlags,
 }
@@ -235,7 +250,40 @@ impl Plan {
     }
 }
 
+/// `bench --frames N`: the frame loop (isomarch::frame_loop).
+fn run_loop(args: BenchArgs, count: usize) -> Result<()> {
+    let methods = checks::methods(&args.methods)?;
+    let samples = args.samples.map(isomarch::render::offscreen::check_samples).transpose()?;
+    if let Some(path) = &args.json {
+        FileFormat::of("--json", path, &[FileFormat::Json])?;
+    }
+    if count == 0 {
+        anyhow::bail!("--frames takes at least one frame");
+    }
+    let input = args.flags.open(&args.scene, args.trajectory.as_deref(), &args.play)?;
+    let (scene, stager) = match input {
+        Input::Still(scene, _) => (scene, None),
+        Input::Frames(mut stager) => (stager.scene(0)?.0, Some(stager)),
+    };
+    let gpu = args.flags.gpu.open()?;
+    let mut job = RenderJob::new(scene.at_time(0.0), methods[0], args.size, PathBuf::new(), gpu.timeout);
+    if let Some(n) = samples {
+        job.samples = n;
+    }
+    let bar = indicatif::ProgressBar::new(count as u64);
+    let report = isomarch::frame_loop::run(&gpu.ctx, &job, stager, count, |k| bar.set_position(k as u64))?;
+    bar.finish_and_clear();
+    println!("{}", report.summary());
+    if let Some(path) = &args.json {
+        write_atomic(path, &serde_json::to_vec_pretty(&report)?)?;
+    }
+    finish(&gpu.ctx)
+}
+
 pub fn run(args: BenchArgs) -> Result<()> {
+    if let Some(count) = args.frames {
+        return run_loop(args, count);
+    }
     let plan = Plan::try_from(args)?;
     let gpu = plan.gpu.open()?;
     let report = bench::run(&gpu.ctx, &plan.scene, &plan.protocol(), gpu.timeout)?;

@@ -6,9 +6,11 @@ mod context;
 mod pipeline;
 mod present;
 mod submit;
+mod transfer;
 
-pub use buffer::Buffer;
+pub use buffer::{Buffer, Role};
 pub use context::{Context, ContextOptions, DeviceInfo, list_devices};
 pub use pipeline::ComputePipeline;
 pub use present::{Presented, Presenter};
 pub use submit::{GpuError, Submitter};
+pub use transfer::{Fetch, TransferStats, Transfers};

@@ -45,7 +45,7 @@ impl ComputePipeline {
         let device = &ctx.device;
         let code: Vec<u32> = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).context("reading SPIR-V")?;
         let module_info = vk::ShaderModuleCreateInfo::default().code(&code);
-        // SAFETY: valid SPIR-V built by build.rs.
+        // SAFETY: valid SPIR-V built by shaders/build.rs.
         let module = unsafe { device.create_shader_module(&module_info, None) }.context("creating shader module")?;
 
         let types: Vec<vk::DescriptorType> = bindings.iter().map(descriptor_type).collect();

@@ -14,7 +14,7 @@ use anyhow::{Context as _, Result, anyhow, bail};
 use ash::vk;
 use raw_window_handle::{RawDisplayHandle, RawWindowHandle};
 
-use super::{Buffer, Context, GpuError};
+use super::{Buffer, Context, GpuError, Role};
 
 /// What a present achieved.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -210,7 +210,7 @@ impl Presenter {
         let bytes = u64::from(extent.width) * u64::from(extent.height) * 4;
         if self.staging.as_ref().is_none_or(|b| b.size < bytes) {
             self.staging = None;
-            self.staging = Some(Buffer::with_usage(&self.ctx, "window pixels", bytes, vk::BufferUsageFlags::TRANSFER_SRC)?);
+            self.staging = Some(Buffer::with_usage(&self.ctx, "window pixels", bytes, vk::BufferUsageFlags::empty(), Role::Upload)?);
         }
         Ok(true)
     }

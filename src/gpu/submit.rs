@@ -7,6 +7,7 @@ use anyhow::{Context as _, Result};
 use ash::vk;
 
 use super::Context;
+use super::transfer::Transfers;
 
 /// Errors a caller may want to tell apart from the rest.
 #[derive(Debug, thiserror::Error)]
@@ -76,6 +77,40 @@ impl Submitter {
     /// On a passed deadline the context is marked hung (nothing is freed
     /// afterwards) and [`GpuError::DeadlineExceeded`] is returned.
     pub fn run(&mut self, deadline: Instant, timeout_total: Duration, record: impl FnOnce(&ash::Device, vk::CommandBuffer)) -> Result<Option<f64>> {
+        self.submit(deadline, timeout_total, |_, _| {}, record, |_, _| {})
+    }
+
+    /// [`Submitter::run`] with `transfers`' uploads recorded before
+    /// `record` and its reads after, outside the timed span: the time is
+    /// the work's alone. The reads may be taken once this returns `Ok`.
+    pub fn run_with(
+        &mut self,
+        deadline: Instant,
+        timeout_total: Duration,
+        transfers: &mut Transfers,
+        record: impl FnOnce(&ash::Device, vk::CommandBuffer),
+    ) -> Result<Option<f64>> {
+        transfers.prepare()?;
+        let t = &*transfers;
+        // SAFETY: prepare ran; the buffers staged for belong to the caller,
+        // who keeps them alive across this call, which waits for the GPU.
+        let result =
+            self.submit(deadline, timeout_total, |d, cmd| unsafe { t.record_before(d, cmd) }, record, |d, cmd| unsafe { t.record_after(d, cmd) });
+        match result {
+            Ok(_) => transfers.completed(),
+            Err(_) => transfers.abandon(),
+        }
+        result
+    }
+
+    fn submit(
+        &mut self,
+        deadline: Instant,
+        timeout_total: Duration,
+        before: impl FnOnce(&ash::Device, vk::CommandBuffer),
+        record: impl FnOnce(&ash::Device, vk::CommandBuffer),
+        after: impl FnOnce(&ash::Device, vk::CommandBuffer),
+    ) -> Result<Option<f64>> {
         let d = &self.ctx.device;
         let cmd = self.cmd;
         // SAFETY: the previous submission (if any) was waited for, so the
@@ -87,12 +122,18 @@ impl Submitter {
             let timed = self.queries != vk::QueryPool::null();
             if timed {
                 d.cmd_reset_query_pool(cmd, self.queries, 0, 2);
-                d.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, self.queries, 0);
+            }
+            before(d, cmd);
+            if timed {
+                // Written once the uploads before it completed: the span
+                // is the work's.
+                d.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.queries, 0);
             }
             record(d, cmd);
             if timed {
                 d.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.queries, 1);
             }
+            after(d, cmd);
             d.end_command_buffer(cmd).map_err(|e| map_vk(e, "ending a command buffer"))?;
             d.reset_fences(&[self.fence]).map_err(|e| map_vk(e, "resetting a fence"))?;
             let cmds = [cmd];

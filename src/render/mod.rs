@@ -17,7 +17,7 @@ use ash::vk;
 
 use crate::field::inversion::Inversion;
 use crate::field::{Field, PrimEval};
-use crate::gpu::{Buffer, ComputePipeline, Context, Submitter};
+use crate::gpu::{Buffer, ComputePipeline, Context, Role, Submitter, TransferStats, Transfers};
 use crate::layout::{self, GpuBound, GpuGlobals, GpuLight, GpuMarchState, GpuPrimitive, GpuRay, GpuResult, TexelFormat};
 use crate::method::Method;
 use crate::scene::{self, Primitive, Scene};
@@ -96,6 +96,9 @@ const PUSH_CONSTANT_BYTES: u32 = 16;
 /// a march runs in slices that stay below that, resuming from its saved
 /// state; on every device this also bounds the length of one dispatch.
 const LOOP_BUDGET: usize = 60_000;
+/// Slices of a march recorded in one submission at most: a slice after
+/// every ray finished costs a dispatch whose invocations return at once.
+const SLICES_PER_SUBMIT: u64 = 8;
 /// Iterations of the small loops (lights, bisection-tree moves) a turn and a
 /// slice may add beyond their passes over the primitives.
 const SMALL_LOOPS: usize = 72;
@@ -286,6 +289,9 @@ pub struct Renderer {
     /// The camera's screen-space lists, for the frame they were built for.
     tiles: Option<CameraTiles>,
     submitter: Submitter,
+    /// Uploads into and reads out of the device-local buffers, recorded
+    /// into the next submission (gpu::Transfers).
+    transfers: Transfers,
     /// Wall-clock nanoseconds spent creating pipelines and compiling their
     /// code ([`Renderer::warm_up`]), apart from every GPU time reported.
     pipeline_ns: f64,
@@ -474,10 +480,11 @@ fn specialization(scene: &Scene, method: Method, key: &PipelineKey, indexed: boo
 }
 
 /// The primitives' buffer: a storage buffer for the index build, texels
-/// for the march (`layout::BINDINGS`).
-fn primitive_buffer(ctx: &Arc<Context>, prims: &[GpuPrimitive]) -> Result<Buffer> {
-    let mut b = Buffer::texels(ctx, "primitives", size_of_val(prims) as u64, TexelFormat::Rgba32Uint, true)?;
-    b.write(0, prims)?;
+/// for the march (`layout::BINDINGS`), filled by `transfers`' next
+/// submission.
+fn primitive_buffer(ctx: &Arc<Context>, transfers: &mut Transfers, prims: &[GpuPrimitive]) -> Result<Buffer> {
+    let b = Buffer::texels(ctx, "primitives", size_of_val(prims) as u64, TexelFormat::Rgba32Uint, true)?;
+    transfers.upload(&b, 0, prims)?;
     Ok(b)
 }
 
@@ -487,7 +494,7 @@ fn index_buffers(ctx: &Arc<Context>, grid: Option<&GridSpec>) -> Result<[Buffer;
     Ok([
         Buffer::texels(ctx, "index lists", 4 * words[0] as u64, TexelFormat::R32Uint, true)?,
         Buffer::texels(ctx, "index entries", 4 * words[1] as u64, TexelFormat::R32Uint, false)?,
-        Buffer::new(ctx, "index scratch", 4 * words[2] as u64)?,
+        Buffer::device(ctx, "index scratch", 4 * words[2] as u64)?,
     ])
 }
 
@@ -552,15 +559,17 @@ impl Renderer {
                 color: [l.color.x as f32, l.color.y as f32, l.color.z as f32, 0.0],
             })
             .collect();
+        let mut transfers = Transfers::new(ctx);
         let renderer = Renderer {
             globals: Buffer::uniform(ctx, "globals", &[globals(scene, 2.0, scene.marching.quad, grid.as_ref())])?,
-            prims: primitive_buffer(ctx, &prims)?,
+            prims: primitive_buffer(ctx, &mut transfers, &prims)?,
             lights: Buffer::with_data(ctx, "lights", &lights)?,
-            rays: Buffer::new(ctx, "rays", (TILE_RAYS * size_of::<GpuRay>()) as u64)?,
-            results: Buffer::new(ctx, "results", (TILE_RAYS * size_of::<GpuResult>()) as u64)?,
-            states: Buffer::new(ctx, "march states", (TILE_RAYS * size_of::<GpuMarchState>()) as u64)?,
-            active: Buffer::new(ctx, "active ray count", 16)?,
-            crossings: Buffer::new(ctx, "crossings", (TILE_RAYS * layout::MAX_CROSSINGS as usize * size_of::<f32>()) as u64)?,
+            rays: Buffer::device(ctx, "rays", (TILE_RAYS * size_of::<GpuRay>()) as u64)?,
+            results: Buffer::device(ctx, "results", (TILE_RAYS * size_of::<GpuResult>()) as u64)?,
+            states: Buffer::device(ctx, "march states", (TILE_RAYS * size_of::<GpuMarchState>()) as u64)?,
+            active: Buffer::device(ctx, "active ray count", 16)?,
+            crossings: Buffer::device(ctx, "crossings", (TILE_RAYS * layout::MAX_CROSSINGS as usize * size_of::<f32>()) as u64)?,
+            transfers,
             grid,
             cells,
             entries,
@@ -633,7 +642,9 @@ impl Renderer {
         // (invocations, pass) in order; see index.comp.
         let passes = [(lists + 1, 0u32), (n, 1), (blocks, 2), (1, 3), (blocks, 4), (n, 5), (lists, 6)];
         let deadline = Instant::now() + self.timeout;
-        let ns = self.submitter.run(deadline, self.timeout, |d, cmd| {
+        let longest = self.transfers.fetch::<u32>(&self.scratch, 0, 1)?;
+        let entries = self.transfers.fetch::<u32>(&self.cells, grid.lists(), 1)?;
+        let ns = self.submitter.run_with(deadline, self.timeout, &mut self.transfers, |d, cmd| {
             // SAFETY: the pipeline and its set are alive and bound to the
             // renderer's buffers, sized for this grid.
             unsafe {
@@ -659,8 +670,8 @@ impl Renderer {
                 }
             }
         })?;
-        let longest = self.scratch.read::<u32>(0, 1)?[0] as usize;
-        let entries = self.cells.read::<u32>(grid.lists(), 1)?[0] as usize;
+        let longest = self.transfers.take::<u32>(longest)?[0] as usize;
+        let entries = self.transfers.take::<u32>(entries)?[0] as usize;
         if entries > grid.entry_capacity {
             bail!("the spatial index holds {entries} entries, more than the {} it was sized for", grid.entry_capacity);
         }
@@ -707,7 +718,7 @@ impl Renderer {
         // replaced if one fails), then every pipeline bound to them.
         let resized = grid.map(|g| g.buffer_words()) != self.grid.map(|g| g.buffer_words());
         let buffers = if resized { Some(index_buffers(&self.ctx, grid.as_ref())?) } else { None };
-        self.prims.write(0, &primitives_with_radii(scene, &radii))?;
+        self.transfers.upload(&self.prims, 0, &primitives_with_radii(scene, &radii))?;
         self.scene = scene.clone();
         self.grid = grid;
         // The primitives moved: the lists are another frame's.
@@ -729,7 +740,7 @@ impl Renderer {
         if prims.len() != self.scene.primitive_count() {
             bail!("{} raw primitives for a scene of {}", prims.len(), self.scene.primitive_count());
         }
-        self.prims.write(0, prims)
+        self.transfers.upload(&self.prims, 0, prims)
     }
 
     /// Binds every pipeline to the buffers as they are now (after some
@@ -825,7 +836,7 @@ impl Renderer {
         let deadline = Instant::now() + self.timeout;
         let (pipeline, layout, set) = handles;
         let push = [0u32, 1, self.slice_steps, 0];
-        self.submitter.run(deadline, self.timeout, |d, cmd| {
+        self.submitter.run_with(deadline, self.timeout, &mut self.transfers, |d, cmd| {
             // SAFETY: as in `dispatch`; no invocation reads or writes a buffer.
             unsafe {
                 d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
@@ -837,24 +848,91 @@ impl Renderer {
         Ok(())
     }
 
-    /// Records one dispatch over `count` rays with these push constants.
+    /// Records one dispatch per push constants (`push[0]` rays each) in
+    /// one submission, each after the previous one's writes, with the
+    /// transfers staged for it. With `count_active` the active-ray counter
+    /// is zeroed before each dispatch, so that after the last it holds the
+    /// rays that dispatch left unfinished.
     fn dispatch(
         &mut self,
         (pipeline, layout, set): (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet),
         deadline: Instant,
-        push: [u32; 4],
+        pushes: &[[u32; 4]],
+        count_active: bool,
     ) -> Result<Option<f64>> {
-        let groups = (push[0] as usize).div_ceil(WORKGROUP) as u32;
-        self.submitter.run(deadline, self.timeout, |d, cmd| {
+        let active = self.active.handle;
+        self.submitter.run_with(deadline, self.timeout, &mut self.transfers, |d, cmd| {
             // SAFETY: the pipeline, its layout and set are alive and bound
-            // to buffers sized for a full tile.
+            // to buffers sized for a full tile; the counter is one of them.
             unsafe {
                 d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
                 d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
-                d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&push));
-                d.cmd_dispatch(cmd, groups, 1, 1);
+                for (i, push) in pushes.iter().enumerate() {
+                    if i > 0 {
+                        // The next slice reads what the last one wrote,
+                        // and the counter's reset waits for its count.
+                        let barrier = vk::MemoryBarrier::default()
+                            .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                            .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE);
+                        d.cmd_pipeline_barrier(
+                            cmd,
+                            vk::PipelineStageFlags::COMPUTE_SHADER,
+                            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                            vk::DependencyFlags::empty(),
+                            &[barrier],
+                            &[],
+                            &[],
+                        );
+                    }
+                    if count_active {
+                        d.cmd_fill_buffer(cmd, active, 0, 16, 0);
+                        let barrier = vk::MemoryBarrier::default()
+                            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                            .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE);
+                        d.cmd_pipeline_barrier(
+                            cmd,
+                            vk::PipelineStageFlags::TRANSFER,
+                            vk::PipelineStageFlags::COMPUTE_SHADER,
+                            vk::DependencyFlags::empty(),
+                            &[barrier],
+                            &[],
+                            &[],
+                        );
+                    }
+                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(push));
+                    d.cmd_dispatch(cmd, (push[0] as usize).div_ceil(WORKGROUP) as u32, 1, 1);
+                }
             }
         })
+    }
+
+    /// What crossed between host and GPU so far, and the submissions
+    /// waited for (`render --stats`).
+    pub fn transfer_stats(&self) -> TransferStats {
+        self.transfers.stats
+    }
+
+    /// Each of the renderer's buffers by name, with the role it was made
+    /// for (the rule of `gpu::Role`, checked by the tests).
+    pub fn buffer_roles(&self) -> Vec<(&'static str, Role, vk::MemoryPropertyFlags)> {
+        let mut buffers = vec![
+            ("globals", &self.globals),
+            ("primitives", &self.prims),
+            ("lights", &self.lights),
+            ("rays", &self.rays),
+            ("results", &self.results),
+            ("march states", &self.states),
+            ("active ray count", &self.active),
+            ("crossings", &self.crossings),
+            ("index lists", &self.cells),
+            ("index entries", &self.entries),
+            ("index scratch", &self.scratch),
+        ];
+        if let Some(t) = &self.tiles {
+            buffers.push(("tile list starts", &t.starts));
+            buffers.push(("tile list entries", &t.entries));
+        }
+        buffers.into_iter().map(|(name, b)| (name, b.role(), b.memory_properties())).collect()
     }
 
     /// What `method` with `options` evaluates of the field for each query,
@@ -875,9 +953,10 @@ impl Renderer {
         self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad, self.grid.as_ref())])?;
         let mut out = Vec::with_capacity(queries.len());
         for tile in queries.chunks(TILE_RAYS) {
-            self.rays.write(0, tile)?;
-            self.dispatch(handles, deadline, [tile.len() as u32, 0, 0, 0])?;
-            out.extend(self.results.read::<GpuBound>(0, tile.len())?);
+            self.transfers.upload(&self.rays, 0, tile)?;
+            let bounds = self.transfers.fetch::<GpuBound>(&self.results, 0, tile.len())?;
+            self.dispatch(handles, deadline, &[[tile.len() as u32, 0, 0, 0]], false)?;
+            out.extend(self.transfers.take::<GpuBound>(bounds)?);
         }
         Ok(out)
     }
@@ -972,10 +1051,8 @@ impl Renderer {
             self.rebind()?;
         }
         let t = self.tiles.as_mut().expect("made above");
-        t.starts.write(0, &lists.starts)?;
-        if !lists.entries.is_empty() {
-            t.entries.write(0, &lists.entries)?;
-        }
+        self.transfers.upload(&t.starts, 0, &lists.starts)?;
+        self.transfers.upload(&t.entries, 0, &lists.entries)?;
         t.frame = Some(frame);
         t.slice_steps = steps;
         t.stats = TileStats {
@@ -1026,25 +1103,34 @@ impl Renderer {
         let mut gpu_ns = Some(0.0);
         // Every slice but a ray's last takes `slice_steps` turns.
         let max_slices = max_turns(self.scene.marching.max_steps) / u64::from(slice_steps) + 2;
+        let max = layout::MAX_CROSSINGS as usize;
         for (chunk, tile) in rays.chunks(TILE_RAYS).enumerate() {
             let first_tile = camera_from.map_or(0, |from| (from + chunk * TILE_RAYS) / WORKGROUP) as u32;
-            self.rays.write(0, tile)?;
-            for slice in 0.. {
+            self.transfers.upload(&self.rays, 0, tile)?;
+            // Slices in submissions of 1, 2, 4... (at most SLICES_PER_SUBMIT):
+            // most tiles end in their first slice, and a long march waits
+            // on a fence a few times rather than once a slice. Each
+            // submission reads back the counter and the results, which the
+            // last one holds.
+            let (mut slice, mut batch) = (0u64, 1u64);
+            let (tile_results, all) = loop {
                 if slice > max_slices {
                     bail!("rays still marching after {slice} slices of {slice_steps} turns: a marcher ignores its step budget");
                 }
-                self.active.write(0, &[0u32])?;
-                let push: [u32; 4] = [tile.len() as u32, u32::from(slice == 0), slice_steps, first_tile];
-                let ns = self.dispatch(handles, deadline, push)?;
+                let pushes: Vec<[u32; 4]> = (slice..slice + batch).map(|s| [tile.len() as u32, u32::from(s == 0), slice_steps, first_tile]).collect();
+                let active = self.transfers.fetch::<u32>(&self.active, 0, 1)?;
+                let results = self.transfers.fetch::<GpuResult>(&self.results, 0, tile.len())?;
+                let crossed = if options.transparent { Some(self.transfers.fetch::<f32>(&self.crossings, 0, tile.len() * max)?) } else { None };
+                let ns = self.dispatch(handles, deadline, &pushes, true)?;
                 gpu_ns = gpu_ns.zip(ns).map(|(a, b)| a + b);
-                if self.active.read::<u32>(0, 1)?[0] == 0 {
-                    break;
+                slice += batch;
+                batch = (batch * 2).min(SLICES_PER_SUBMIT);
+                if self.transfers.take::<u32>(active)?[0] == 0 {
+                    let all = crossed.map(|c| self.transfers.take::<f32>(c)).transpose()?;
+                    break (self.transfers.take::<GpuResult>(results)?, all);
                 }
-            }
-            let tile_results = self.results.read::<GpuResult>(0, tile.len())?;
-            if options.transparent {
-                let max = layout::MAX_CROSSINGS as usize;
-                let all = self.crossings.read::<f32>(0, tile.len() * max)?;
+            };
+            if let Some(all) = all {
                 for (r, ts) in tile_results.iter().zip(all.chunks(max)) {
                     crossings.push(ts[..(r.crossings[0] as usize).min(max)].to_vec());
                 }

@@ -272,6 +272,25 @@ pub struct RenderStats {
     pub index: Option<IndexStats>,
     /// Memory when the frame was marched.
     pub memory: Memory,
+    /// What the frame cost around the GPU's work.
+    #[serde(flatten)]
+    pub cost: FrameCost,
+}
+
+/// What a frame cost outside the GPU's work: time on the host, bytes
+/// between host and GPU, and fence waits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct FrameCost {
+    /// Wall time of the frame: upload, march, light, look and readback,
+    /// not the files' encoding.
+    pub frame_ms: f64,
+    /// `frame_ms` less the GPU's time (the camera rays' and the shadow and
+    /// occlusion rays') and less `pipeline_ms`: what the host spent.
+    pub host_ms: f64,
+    /// Bytes copied from the GPU's buffers to the host, uploads to them,
+    /// and submissions waited on (gpu::TransferStats).
+    #[serde(flatten)]
+    pub transfers: crate::gpu::TransferStats,
 }
 
 /// Memory in use, MiB.
@@ -311,10 +330,12 @@ pub struct FrameReport {
     /// Wall-clock milliseconds of pipeline creation and compilation
     /// ([`Renderer::pipeline_ms`]), outside every GPU time.
     pub pipeline_ms: f64,
+    pub cost: FrameCost,
 }
 
 /// [`render_frame`], with the rest of a [`FrameReport`].
 pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<FrameReport> {
+    let started = std::time::Instant::now();
     let scene = job.scene.recentred_on_camera();
     let mut renderer = Renderer::for_camera(ctx, &scene, job.timeout)?;
     let options = MarchOptions::for_scene(&scene);
@@ -322,7 +343,11 @@ pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<Frame
     let (frame, march) = march_image(&mut renderer, job.method, options, &scene, (job.width, job.height), job.samples, job.effects)?;
     let memory = Memory::now(ctx);
     let tiles = renderer.tile_stats().filter(|_| tiled);
-    Ok(FrameReport { frame, march, index: renderer.index_stats(), tiles, memory, pipeline_ms: renderer.pipeline_ms() })
+    let frame_ms = started.elapsed().as_secs_f64() * 1e3;
+    let gpu_ms = march.gpu_ms.unwrap_or(0.0) + march.any_hit.as_ref().and_then(|a| a.gpu_ms).unwrap_or(0.0);
+    let pipeline_ms = renderer.pipeline_ms();
+    let cost = FrameCost { frame_ms, host_ms: (frame_ms - gpu_ms - pipeline_ms).max(0.0), transfers: renderer.transfer_stats() };
+    Ok(FrameReport { frame, march, index: renderer.index_stats(), tiles, memory, pipeline_ms, cost })
 }
 
 /// `n` rays per pixel, checked as `--samples` (1 to `scene::MAX_SAMPLES`).
@@ -546,7 +571,7 @@ fn march_rays(
 /// Renders and writes every requested file. All files are encoded before
 /// the first is written, and each is written atomically.
 pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStats> {
-    let FrameReport { frame, march, index, tiles, memory, pipeline_ms } = render_frame_indexed(ctx, job)?;
+    let FrameReport { frame, march, index, tiles, memory, pipeline_ms, cost } = render_frame_indexed(ctx, job)?;
     let stats = RenderStats {
         scene: job.scene.source.clone(),
         method: job.method.to_string(),
@@ -566,6 +591,7 @@ pub fn render_to_files(ctx: &Arc<Context>, job: &RenderJob) -> Result<RenderStat
         tiles,
         index,
         memory,
+        cost,
     };
     let outputs = job.outputs()?;
     // An EXR image with AOVs that go to the same file holds both.
