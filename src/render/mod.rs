@@ -24,21 +24,16 @@ use crate::scene::{self, Primitive, Scene};
 use crate::settings::{QuadSettings, Refinement};
 use index::{GridSpec, IndexStats, index_radii};
 
-/// SPIR-V of the march kernel, built by build.rs.
-const MARCH_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march.spv"));
-/// SPIR-V of the bounds probe (tests of the inclusion functions).
-const BOUNDS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bounds.spv"));
-/// The same kernels walking the spatial index (build variants: layout::shader_variants).
-const MARCH_INDEXED_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march_indexed.spv"));
-const BOUNDS_INDEXED_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bounds_indexed.spv"));
-/// The indexed march with the first-crossing bracket ([`brackets`]).
-const MARCH_BRACKET_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march_bracket.spv"));
-/// The bracket's kernel walking the camera's screen-space lists ([`tiles`]).
-const MARCH_TILES_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march_tiles.spv"));
-/// The same walk without the bracket: transparent camera rays.
-const MARCH_TILES_CROSSINGS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/march_tiles_crossings.spv"));
-/// SPIR-V of the spatial index's build.
-const INDEX_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/index.spv"));
+// SPIR-V of the kernels, built by the isomarch-shaders crate (shaders/):
+// the march and the bounds probe, the same walking the spatial index
+// (build variants: layout::shader_variants), the indexed march with the
+// first-crossing bracket ([`brackets`]), the bracket's kernel walking the
+// camera's screen-space lists ([`tiles`]) and that walk without the
+// bracket (transparent camera rays), and the spatial index's build.
+use isomarch_shaders::{
+    BOUNDS as BOUNDS_SPV, BOUNDS_INDEXED as BOUNDS_INDEXED_SPV, INDEX as INDEX_SPV, MARCH as MARCH_SPV, MARCH_BRACKET as MARCH_BRACKET_SPV,
+    MARCH_INDEXED as MARCH_INDEXED_SPV, MARCH_TILES as MARCH_TILES_SPV, MARCH_TILES_CROSSINGS as MARCH_TILES_CROSSINGS_SPV,
+};
 
 /// Which entry point a pipeline runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
