@@ -151,7 +151,7 @@ fn a_scene_written_with_view_flags_renders_as_the_flags_do() {
 /// Orthographic projection in closed form: a sphere of radius ρ renders as
 /// a disc of ρ/h·H pixels (view height h, image height H) whatever the
 /// eye's distance, within a pixel; the scene file's `projection` is the
-/// flag's, byte for byte; on 1A8O's camera rays, `bench --camera` against
+/// flag's, byte for byte; on 1A8O's camera rays, `bench --camera-rays` against
 /// the f64 reference on the same parallel rays: no miss, no false hit.
 #[test]
 fn an_orthographic_view_draws_a_sphere_its_size_at_any_distance() {
@@ -187,7 +187,7 @@ fn an_orthographic_view_draws_a_sphere_its_size_at_any_distance() {
     // The f64 reference on the same parallel rays.
     let bench = dir.join("bench.json");
     let pdb = repo_root().join("tests/data/molecules/1A8O.pdb");
-    isomarch(["bench", pdb.to_str().unwrap(), "--camera", "40x40", "--rays", "1600", "--ortho", "--methods", "quadratic-taylor,segment"])
+    isomarch(["bench", pdb.to_str().unwrap(), "--camera-rays", "40x40", "--rays", "1600", "--ortho", "--methods", "quadratic-taylor,segment"])
         .args(["--json", bench.to_str().unwrap()])
         .ok();
     let report = json(&bench);
@@ -314,7 +314,7 @@ fn a_clipped_sphere_shows_its_cap_on_the_cutting_plane() {
     assert!((measured - disc).abs() < 1.0, "a cap of radius {measured:.2} pixels, expected {disc:.2}");
     for (input, clip) in [(path.clone(), "near:12"), (repo_root().join("tests/data/molecules/1A8O.pdb"), "near:80,far:120")] {
         let bench = dir.join("bench.json");
-        isomarch(["bench", input.to_str().unwrap(), "--camera", "40x40", "--rays", "1600", "--clip", clip, "--methods", "quadratic-taylor,segment"])
+        isomarch(["bench", input.to_str().unwrap(), "--camera-rays", "40x40", "--rays", "1600", "--clip", clip, "--methods", "quadratic-taylor,segment"])
             .args(["--json", bench.to_str().unwrap()])
             .ok();
         let report = json(&bench);
