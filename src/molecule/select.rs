@@ -939,6 +939,13 @@ mod tests {
         // GLY 2 of chain A and GLY 2 of chain B are neighbours but not one residue.
         assert_eq!(sel("same residue as chain B"), vec![8]);
         assert_eq!(sel("same residue as name CA and resid 2"), vec![6, 7, 8]);
+        // `same residue as` and `byres` take everything to their right. The row above reads the same either way;
+        // these do not: bound as tightly as `not`, the first would be ALA 1's N (0), the second GLY 2's N (6).
+        assert_eq!(sel("same residue as name CB and name N"), Vec::<usize>::new());
+        assert_eq!(sel("byres name CB and name N"), Vec::<usize>::new());
+        assert_eq!(sel("same residue as resid 2 and name N"), vec![6, 7]);
+        assert_eq!(sel("byres resid 2 and name N"), vec![6, 7]);
+        assert_eq!(sel("(same residue as resid 2) and name N"), vec![6]);
         assert_eq!(sel("byres resid 52A"), vec![14]);
         assert_eq!(sel("byres name NA"), vec![10]);
     }
