@@ -141,11 +141,17 @@ fn a_scene_written_with_view_flags_renders_as_the_flags_do() {
         isomarch(["render", input.to_str().unwrap(), "-o", png.to_str().unwrap()]).args(extra).ok();
         std::fs::read(png).unwrap()
     };
-    assert_eq!(
-        render_sized(&whole, &[], "whole.png"),
-        render_sized(&pdb, &["--camera", camera.to_str().unwrap(), "--turntable", "8"], "camera.png"),
-        "scene --camera and render --camera differ"
-    );
+    let with_camera = render_sized(&pdb, &["--camera", camera.to_str().unwrap(), "--turntable", "8"], "camera.png");
+    assert_eq!(render_sized(&whole, &[], "whole.png"), with_camera, "scene --camera and render --camera differ");
+    // The file's camera is used, not the molecule's own: its resolution,
+    // and a view that is not the plain render's at that size.
+    let shown = image::load_from_memory(&with_camera).unwrap();
+    assert_eq!((shown.width(), shown.height()), (48, 40), "render --camera does not take the camera's resolution");
+    let plain = dir.join("plain-48x40.png");
+    isomarch(["render", pdb.to_str().unwrap(), "-o", plain.to_str().unwrap(), "--size", "48x40", "--turntable", "8"]).ok();
+    let plain = image::open(&plain).unwrap().to_rgb8();
+    let differing = shown.to_rgb8().pixels().zip(plain.pixels()).filter(|(p, q)| p != q).count();
+    assert!(differing > 200, "render --camera differs from the molecule's own camera in only {differing} of 1920 pixels");
 }
 
 /// Orthographic projection in closed form: a sphere of radius ρ renders as
