@@ -184,10 +184,27 @@ fn an_orthographic_view_draws_a_sphere_its_size_at_any_distance() {
     isomarch(["render", ball(30.0, ", projection: Orthographic(height: 8.0)").to_str().unwrap(), "-o", file.to_str().unwrap()]).ok();
     isomarch(["render", ball(30.0, "").to_str().unwrap(), "-o", flag.to_str().unwrap(), "--ortho", "8"]).ok();
     assert_eq!(std::fs::read(&file).unwrap(), std::fs::read(&flag).unwrap());
-    // Without a height: the perspective view's height at the target.
-    isomarch(["render", ball(30.0, "").to_str().unwrap(), "-o", flag.to_str().unwrap(), "--ortho"]).ok();
-    let h = 2.0 * 30.0 * 15f64.to_radians().tan();
-    assert!((radius(&flag) - rho / h * 96.0).abs() < 1.0, "--ortho alone: {:.2} pixels", radius(&flag));
+    // Without a height: the perspective view's height at the target,
+    // h = 2 d tan(15°), pixel by pixel. The eye at d = 10 makes h = 5.36
+    // and a disc of 16 pixels' radius; every pixel whose centre lies more
+    // than 0.01 (0.18 pixels) inside the sphere's outline hits and every
+    // pixel more than 0.01 outside misses, so a height 2% off fails (15%
+    // passed the disc's area within a pixel).
+    let (d, png) = (10.0, dir.join("ortho-default.png"));
+    isomarch(["render", ball(d, "").to_str().unwrap(), "-o", png.to_str().unwrap(), "--ortho"]).ok();
+    let h = 2.0 * d * 15f64.to_radians().tan();
+    let img = image::open(&png).unwrap().to_rgb8();
+    let mut inside = 0;
+    for (x, y, p) in img.enumerate_pixels() {
+        // The pixel's centre on the view plane, scene units from the axis.
+        let (sx, sy) = ((f64::from(x) + 0.5) / 96.0 - 0.5, 0.5 - (f64::from(y) + 0.5) / 96.0);
+        let r = h * sx.hypot(sy);
+        let hit = p.0.iter().any(|&c| c > 0);
+        assert!(r >= rho - 0.01 || hit, "--ortho alone: pixel ({x}, {y}) at {r:.4} from the axis, inside the sphere's {rho:.4}, missed");
+        assert!(r <= rho + 0.01 || !hit, "--ortho alone: pixel ({x}, {y}) at {r:.4} from the axis, outside the sphere's {rho:.4}, hit");
+        inside += usize::from(r < rho - 0.01);
+    }
+    assert!(inside > 700, "--ortho alone: only {inside} pixels inside the disc");
     let err = isomarch(["render", ball(30.0, "").to_str().unwrap(), "-o", flag.to_str().unwrap(), "--ortho=0"]).fails_in_one_line();
     assert!(err.contains("--ortho takes the view's height"), "{err}");
     // The f64 reference on the same parallel rays.
