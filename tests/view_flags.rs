@@ -351,3 +351,57 @@ fn a_clipped_sphere_shows_its_cap_on_the_cutting_plane() {
         assert!(err.contains("--clip"), "{bad}: {err}");
     }
 }
+
+/// `far` clipping in closed form: the sphere of radius ρ = 3·sqrt(1 −
+/// cbrt(0.5)) = 1.37 about the origin, the eye 12 away, `--clip far:11`
+/// (nothing farther than 11 from the eye's plane along the view). Far cuts
+/// are not capped: a pixel hits where its ray meets the sphere first at a
+/// view depth of at most 11, at that distance (the depth AOV), and misses
+/// where the sphere's front lies beyond 11 or the ray passes it by, every
+/// pixel 0.005 from either boundary checked. The front of the sphere
+/// reaches 10.63, so the far plane cuts the disc down to a cap of about 15
+/// pixels' radius (the unclipped disc has 21).
+#[test]
+fn a_far_clip_cuts_a_sphere_from_behind() {
+    let dir = scratch("view-far");
+    let path = dir.join("ball.ron");
+    let camera = "eye: (0.0, 0.0, 12.0), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96)";
+    std::fs::write(&path, ball_scene(camera, 3.0, "lights: [(direction: (0.3, 0.8, 0.5))],")).unwrap();
+    let exr = dir.join("far.exr");
+    isomarch(["render", path.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--clip", "far:11", "--aov", "depth"]).ok();
+    let depth = exr_channel(&exr::prelude::read_all_flat_layers_from_file(&exr).unwrap(), "Z");
+    let rho = 3.0 * (1.0 - 0.5f64.cbrt()).sqrt();
+    let (eye, far) = (DVec3::new(0.0, 0.0, 12.0), 11.0);
+    let half = 15f64.to_radians().tan();
+    let (mut hits, mut cut) = (0, 0);
+    for y in 0..96u32 {
+        for x in 0..96u32 {
+            let i = (y * 96 + x) as usize;
+            let (sx, sy) = ((2.0 * (f64::from(x) + 0.5) / 96.0 - 1.0) * half, (1.0 - 2.0 * (f64::from(y) + 0.5) / 96.0) * half);
+            let d = DVec3::new(sx, sy, -1.0).normalize();
+            // |eye + t d| = ρ: t = -b - sqrt(b² - c), b = eye·d, c = |eye|² - ρ².
+            let (b, c) = (eye.dot(d), eye.length_squared() - rho * rho);
+            let disc = b * b - c;
+            // Where the ray meets the sphere first, and that point's view depth.
+            let first = (disc > 0.0).then(|| -b - disc.sqrt());
+            let at = format!("pixel ({x}, {y}): depth {}", depth[i]);
+            match first {
+                Some(t) if (t * -d.z - far).abs() < 0.005 => {}
+                Some(t) if t * -d.z < far => {
+                    // Grazing rays (the chord under 0.1) may go either way.
+                    if disc.sqrt() < 0.05 {
+                        continue;
+                    }
+                    assert!((f64::from(depth[i]) - t).abs() < 1e-3, "{at}, where the sphere's front is at {t:.5}, before the far plane");
+                    hits += 1;
+                }
+                Some(t) => {
+                    assert!(!depth[i].is_finite(), "{at}, where the sphere's front lies at view depth {:.4}, beyond far:11", t * -d.z);
+                    cut += 1;
+                }
+                None => assert!(disc > -0.01 || !depth[i].is_finite(), "{at}, where the ray passes the sphere by"),
+            }
+        }
+    }
+    assert!(hits > 500 && cut > 400, "{hits} pixels kept before the far plane, {cut} cut away behind it");
+}
