@@ -186,6 +186,19 @@ fn a_transparent_background_holds_the_edges_coverage_in_alpha() {
     let red = image::open(&red).unwrap().to_rgb8();
     assert_eq!(red.get_pixel(w - 1, 0).0, [0xFF, 0x80, 0x00]);
     assert_eq!(red.get_pixel(0, 0).0, [surface; 3]);
+    // A CSS name (navy is #000080) and linear r,g,b (written as sRGB),
+    // and a colour that is none refused in one line.
+    let srgb = isomarch::output::srgb;
+    for (given, want) in [("navy", [0x00, 0x00, 0x80]), ("0.2,0.4,0.6", [srgb(0.2), srgb(0.4), srgb(0.6)])] {
+        let png = dir.join("bg.png");
+        run_ok(&["render", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "--background", given]);
+        let img = image::open(&png).unwrap().to_rgb8();
+        assert_eq!(img.get_pixel(w - 1, 0).0, want, "--background {given}");
+        assert_eq!(img.get_pixel(0, 0).0, [surface; 3], "--background {given} changed a hit");
+    }
+    let err = isomarch(["render", path.to_str().unwrap(), "-o", dir.join("bad.png").to_str().unwrap(), "--background", "navvy"]).fails_in_one_line();
+    assert!(err.contains("--background \"navvy\" is no colour"), "{err}");
+    assert!(!dir.join("bad.png").exists(), "a refused --background wrote an image");
 }
 
 /// `--outline 3` on the edge above, the edge's column e and its coverage c
@@ -260,6 +273,25 @@ fn an_outline_is_drawn_its_width_inside_the_surfaces_edge() {
             } else {
                 assert!(close(r, 0.8) && close(g, 0.8) && close(b, 0.8), "{at}: not the surface");
             }
+        }
+    }
+    // `--outline` without a width is 1 (docs/commands.md): the same bytes
+    // as `--outline 1`, whose one outline column is the last hit's alone.
+    let (alone, one) = (dir.join("outline-alone.png"), dir.join("outline-1.png"));
+    run_ok(&["render", path.to_str().unwrap(), "-o", alone.to_str().unwrap(), "--outline", "--outline-color", "#00ff00"]);
+    run_ok(&["render", path.to_str().unwrap(), "-o", one.to_str().unwrap(), "--outline", "1", "--outline-color", "#00ff00"]);
+    assert!(std::fs::read(&alone).unwrap() == std::fs::read(&one).unwrap(), "--outline alone renders otherwise than --outline 1");
+    let alone = image::open(&alone).unwrap().to_rgb8();
+    for y in 0..h {
+        for x in 0..w {
+            let want = if x > last {
+                background
+            } else if x == last {
+                [0, 255, 0]
+            } else {
+                surface
+            };
+            assert_eq!(alone.get_pixel(x, y).0, want, "--outline alone: pixel ({x}, {y}), the last hit column {last}");
         }
     }
     let err = isomarch(["render", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "--outline", "0"]).fails_in_one_line();

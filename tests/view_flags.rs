@@ -286,6 +286,17 @@ fn depth_cueing_blends_a_tilted_plane_by_its_depth() {
         }
     }
     assert!(checked > 1000 && blended > 200, "{checked} pixels on the plane, {blended} partly blended");
+    // `--depth-cue` without a value is 0.5:1 (docs/commands.md): the same
+    // bytes, and a blend that shows (the plane reaches beyond half the
+    // depth range).
+    let (alone, half) = (dir.join("cue-alone.png"), dir.join("cue-half.png"));
+    isomarch(["render", path.to_str().unwrap(), "-o", alone.to_str().unwrap(), "--depth-cue"]).ok();
+    isomarch(["render", path.to_str().unwrap(), "-o", half.to_str().unwrap(), "--depth-cue", "0.5:1"]).ok();
+    let alone_bytes = std::fs::read(&alone).unwrap();
+    assert!(alone_bytes == std::fs::read(&half).unwrap(), "--depth-cue alone renders otherwise than --depth-cue 0.5:1");
+    let alone = image::load_from_memory(&alone_bytes).unwrap().to_rgb8();
+    let changed = alone.pixels().zip(plain.pixels()).filter(|(p, q)| p != q).count();
+    assert!(changed > 100, "--depth-cue alone changed only {changed} pixels");
 }
 
 /// Clipping in closed form: a sphere of radius ρ = 3·sqrt(1 − cbrt(0.5))
@@ -337,9 +348,20 @@ fn a_clipped_sphere_shows_its_cap_on_the_cutting_plane() {
     assert!((measured - disc).abs() < 1.0, "a cap of radius {measured:.2} pixels, expected {disc:.2}");
     for (input, clip) in [(path.clone(), "near:12"), (repo_root().join("tests/data/molecules/1A8O.pdb"), "near:80,far:120")] {
         let bench = dir.join("bench.json");
-        isomarch(["bench", input.to_str().unwrap(), "--camera-rays", "40x40", "--rays", "1600", "--clip", clip, "--methods", "quadratic-taylor,segment"])
-            .args(["--json", bench.to_str().unwrap()])
-            .ok();
+        isomarch([
+            "bench",
+            input.to_str().unwrap(),
+            "--camera-rays",
+            "40x40",
+            "--rays",
+            "1600",
+            "--clip",
+            clip,
+            "--methods",
+            "quadratic-taylor,segment",
+        ])
+        .args(["--json", bench.to_str().unwrap()])
+        .ok();
         let report = json(&bench);
         assert!(report["reference_hit_rate"].as_f64().unwrap() > 0.1, "{report}");
         for row in report["methods"].as_array().unwrap() {
