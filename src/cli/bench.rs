@@ -260,11 +260,15 @@ pub fn run(args: BenchArgs) -> Result<()> {
     finish(&gpu.ctx)
 }
 
+/// `--camera-rays` as parsed: absent, without a size, or WxH.
+#[cfg(test)]
+pub type CameraRays = Option<Option<(u32, u32)>>;
+
 #[cfg(test)]
 impl BenchArgs {
     /// The view flags' camera file and bench's frame of camera rays, as
     /// parsed.
-    pub fn camera_frame(&self) -> (Option<&std::path::Path>, Option<Option<(u32, u32)>>) {
+    pub fn camera_frame(&self) -> (Option<&std::path::Path>, CameraRays) {
         (self.flags.view.camera.as_deref(), self.camera_rays)
     }
 }
