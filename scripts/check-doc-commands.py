@@ -12,7 +12,7 @@ docs/*.md still parse and run. It collects
 Each command is shrunk so that the whole run takes minutes: --size at most 64
 pixels a side (aspect kept; render without --size gets 64x64), --rays at most
 2048 (bench and scaling get --rays 2048 when they have none), --repeat 1,
---frames a..b becomes its first 2 frames, bench --camera WxH becomes 64x64,
+--frames a..b becomes its first 2 frames, bench --camera-rays WxH becomes 64x64,
 scaling keeps its two smallest --counts, tradeoff gets --quick --rays 256.
 
 Commands run from the repository root with the release binary in place of
@@ -247,7 +247,7 @@ def prepare(cmd, binary, out, earlier, helps):
             if sub[0] == "tradeoff" and "replot" in names and find_input(value, earlier):
                 shutil.copytree(find_input(value, earlier)[0], out / value, dirs_exist_ok=True)
             it[3] = str(out / value)
-        elif name == "size" or (name == "camera" and sub[0] == "bench"):
+        elif name == "size" or (name == "camera-rays" and sub[0] == "bench"):
             it[3] = shrink_size(value)
         elif name == "rays":
             it[3] = str(min(int(value), MAX_RAYS if sub[0] != "tradeoff" else 256))

@@ -126,6 +126,22 @@ PAIRS = [
         "(around 3 (name SE and resname MSE)) or (name SE and resname MSE)",
         [("within", 3.0, "name SE and resname MSE")],
     ),
+    # The row above gives the same 16 atoms under both readings of `within`
+    # (SE atoms are MSE's): the next two separate them. Taking everything to
+    # its right, `within 3 of resname MSE and name SE` is `within 3 of
+    # (resname MSE and name SE)`, 16 atoms; bound as tightly as `not`, it
+    # would be `(within 3 of resname MSE) and name SE`, the 4 SE atoms. So
+    # too `same residue as` and `byres`: 32 atoms (the 4 MSE residues), or
+    # the 4 SE atoms. MDAnalysis's `byres` also takes everything to its
+    # right, so its side of the last row is the same text.
+    (
+        PDB,
+        "within 3 of resname MSE and name SE",
+        "(around 3 (resname MSE and name SE)) or (resname MSE and name SE)",
+        [("within", 3.0, "resname MSE and name SE")],
+    ),
+    (PDB, "same residue as resname MSE and name SE", "byres (resname MSE and name SE)", []),
+    (PDB, "byres resname MSE and name SE", "byres resname MSE and name SE", []),
     (PDB, "byres name SE", "byres name SE", []),
     (
         PDB,

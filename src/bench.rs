@@ -133,7 +133,7 @@ pub struct BenchReport {
     pub device: String,
     pub rays: usize,
     pub seed: u64,
-    /// The frame whose camera rays were sampled (`bench --camera`); `null`
+    /// The frame whose camera rays were sampled (`bench --camera-rays`); `null`
     /// for the protocol's rays.
     pub camera: Option<(u32, u32)>,
     /// Times the methods ran, interleaved (method after method, then again).
@@ -658,7 +658,7 @@ fn camera_sample(scene: &Scene, width: u32, height: u32, count: usize, seed: u64
     use rand::SeedableRng;
     let (all, pixels) = camera_rays(&scene.camera, width, height, &scene.bounds);
     let rays: Vec<(u32, GpuRay)> = all.into_iter().zip(pixels).filter_map(|(r, p)| p.map(|p| (p, r))).collect();
-    anyhow::ensure!(count <= rays.len(), "--camera: {count} rays asked of a {width}x{height} frame, which has {}", rays.len());
+    anyhow::ensure!(count <= rays.len(), "--camera-rays: {count} rays asked of a {width}x{height} frame, which has {}", rays.len());
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
     let mut picked: Vec<(u32, GpuRay)> = rand::seq::index::sample(&mut rng, rays.len(), count).into_iter().map(|i| rays[i]).collect();
     picked.sort_by_key(|&(p, _)| p);

@@ -144,7 +144,9 @@ fn a_transparent_background_holds_the_edges_coverage_in_alpha() {
     let img = image::open(&png).unwrap();
     assert_eq!(img.color(), image::ColorType::Rgba8, "an RGBA PNG");
     let img = img.to_rgba8();
-    let a = exr_channel(&exr::prelude::read_all_flat_layers_from_file(&exr).unwrap(), "A");
+    let layers = exr::prelude::read_all_flat_layers_from_file(&exr).unwrap();
+    let a = exr_channel(&layers, "A");
+    let rgb = ["R", "G", "B"].map(|c| exr_channel(&layers, c));
     let surface = isomarch::output::srgb(0.8);
     let mut partial = 0;
     for y in 0..h {
@@ -156,7 +158,19 @@ fn a_transparent_background_holds_the_edges_coverage_in_alpha() {
                 (alpha - coverage).abs() <= 1.0 / 16.0 + 0.5 / 255.0 + 1e-9,
                 "pixel ({x}, {y}): alpha {alpha} where the coverage is {coverage:.4}"
             );
-            assert!((f64::from(a[(y * w + x) as usize]) - coverage).abs() <= 1.0 / 16.0 + 1e-6, "EXR pixel ({x}, {y})");
+            let i = (y * w + x) as usize;
+            assert!((f64::from(a[i]) - coverage).abs() <= 1.0 / 16.0 + 1e-6, "EXR pixel ({x}, {y})");
+            // The EXR's colour is premultiplied: the surface's 0.8 times the
+            // share of samples that hit (none of the background's 0.1).
+            for (channel, values) in ["R", "G", "B"].iter().zip(&rgb) {
+                let want = 0.8 * f64::from(a[i]);
+                assert!(
+                    (f64::from(values[i]) - want).abs() <= 1e-5,
+                    "EXR pixel ({x}, {y}): {channel} {} where 0.8 x alpha {} is {want:.6} (premultiplied)",
+                    values[i],
+                    a[i]
+                );
+            }
             if p[3] > 0 {
                 assert!(p[..3].iter().all(|&c| c.abs_diff(surface) <= 1), "pixel ({x}, {y}): {p:?} is not the surface's colour {surface}");
             } else {
@@ -172,28 +186,112 @@ fn a_transparent_background_holds_the_edges_coverage_in_alpha() {
     let red = image::open(&red).unwrap().to_rgb8();
     assert_eq!(red.get_pixel(w - 1, 0).0, [0xFF, 0x80, 0x00]);
     assert_eq!(red.get_pixel(0, 0).0, [surface; 3]);
+    // A CSS name (navy is #000080) and linear r,g,b (written as sRGB),
+    // and a colour that is none refused in one line.
+    let srgb = isomarch::output::srgb;
+    for (given, want) in [("navy", [0x00, 0x00, 0x80]), ("0.2,0.4,0.6", [srgb(0.2), srgb(0.4), srgb(0.6)])] {
+        let png = dir.join("bg.png");
+        run_ok(&["render", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "--background", given]);
+        let img = image::open(&png).unwrap().to_rgb8();
+        assert_eq!(img.get_pixel(w - 1, 0).0, want, "--background {given}");
+        assert_eq!(img.get_pixel(0, 0).0, [surface; 3], "--background {given} changed a hit");
+    }
+    let err = isomarch(["render", path.to_str().unwrap(), "-o", dir.join("bad.png").to_str().unwrap(), "--background", "navvy"]).fails_in_one_line();
+    assert!(err.contains("--background \"navvy\" is no colour"), "{err}");
+    assert!(!dir.join("bad.png").exists(), "a refused --background wrote an image");
 }
 
-/// `--outline 3` on the edge above (one sample: a pixel hits where its
-/// centre is left of the edge): the three hit columns next to the edge
-/// take the outline's colour, the rest keep the surface's; with 16
-/// samples the edge's own column is partly outlined, partly background.
+/// `--outline 3` on the edge above, the edge's column e and its coverage c
+/// taken from the geometry (`edge_in_pixels`), every pixel of every row
+/// checked. One sample (a pixel hits where its centre is left of the edge):
+/// the three hit columns next to the edge take the outline's colour, the
+/// hits before them keep the surface's, and every miss keeps the
+/// background's (no outline drawn outside the edge). With 16 samples, in
+/// linear light (EXR), per sample: column e's hits all outlined and its
+/// misses background (its green share is its coverage, within 1/16), the
+/// two columns before it all outline, column e - 3 outlined where a sample
+/// of column e within 3 rows misses (at least 1 - c of its samples, within
+/// 1/16), the columns before it the surface and the columns after it the
+/// background, exactly.
 #[test]
 fn an_outline_is_drawn_its_width_inside_the_surfaces_edge() {
     let dir = scratch("aa-outline");
     let (w, h) = (40u32, 8u32);
     let path = dir.join("edge.ron");
     std::fs::write(&path, scene_text("quadratic-taylor")).unwrap();
+    let edge = edge_in_pixels(&path);
+    let (e, c) = (edge.floor() as u32, edge.fract());
+    // The edge well inside a column and away from its centre, so that one
+    // sample's side of it is sure and the columns below are the cases named.
+    assert!((0.1..0.9).contains(&c) && (c - 0.5).abs() > 0.01 && (4..w - 1).contains(&e), "the edge at {edge} pixels");
     let png = dir.join("outline.png");
     run_ok(&["render", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "--outline", "3", "--outline-color", "#00ff00"]);
     let img = image::open(&png).unwrap().to_rgb8();
-    let surface = isomarch::output::srgb(0.8);
-    let hits: Vec<u32> = (0..w).filter(|&x| img.get_pixel(x, 0).0 != [isomarch::output::srgb(0.1); 3]).collect();
-    let last = *hits.last().unwrap();
+    let (surface, background) = ([isomarch::output::srgb(0.8); 3], [isomarch::output::srgb(0.1); 3]);
+    // The last column whose centre is left of the edge.
+    let last = if c > 0.5 { e } else { e - 1 };
     for y in 0..h {
-        for &x in &hits {
-            let want = if x + 3 > last { [0, 255, 0] } else { [surface; 3] };
-            assert_eq!(img.get_pixel(x, y).0, want, "pixel ({x}, {y}), the last hit column {last}");
+        for x in 0..w {
+            let want = if x > last {
+                background
+            } else if x + 3 > last {
+                [0, 255, 0]
+            } else {
+                surface
+            };
+            assert_eq!(img.get_pixel(x, y).0, want, "pixel ({x}, {y}), the edge at {edge:.4} pixels, the last hit column {last}");
+        }
+    }
+    // 16 samples, in linear light: the outline green (0, 1, 0), the
+    // surface 0.8, the background 0.1.
+    let exr_path = dir.join("outline16.exr");
+    run_ok(&["render", path.to_str().unwrap(), "-o", exr_path.to_str().unwrap(), "--outline", "3", "--outline-color", "#00ff00", "--samples", "16"]);
+    let layers = exr::prelude::read_all_flat_layers_from_file(&exr_path).unwrap();
+    let [red, green, blue] = ["R", "G", "B"].map(|ch| exr_channel(&layers, ch));
+    let close = |got: f32, want: f64| (f64::from(got) - want).abs() <= 1e-5;
+    let n = 16.0;
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let (r, g, b) = (red[i], green[i], blue[i]);
+            let at = format!("pixel ({x}, {y}) = ({r}, {g}, {b}), the edge at {edge:.4} pixels");
+            if x > e {
+                assert!(close(r, 0.1) && close(g, 0.1) && close(b, 0.1), "{at}: not the background");
+            } else if x == e {
+                // Hits outlined, misses background: G = k + 0.1 (1 - k),
+                // R = B = 0.1 (1 - k), k the share of samples that hit.
+                let k = (f64::from(g) - 0.1) / 0.9;
+                assert!((k - c).abs() <= 1.0 / n + 1e-5, "{at}: {k:.4} of the edge column outlined, its coverage {c:.4}");
+                assert!(close(r, 0.1 * (1.0 - k)) && close(b, 0.1 * (1.0 - k)), "{at}: not outline and background");
+            } else if x + 2 >= e {
+                assert!(close(r, 0.0) && close(g, 1.0) && close(b, 0.0), "{at}: not the outline");
+            } else if x + 3 == e {
+                // Outline on a share f of samples, the surface on the rest.
+                let f = 1.0 - f64::from(r) / 0.8;
+                assert!(f >= 1.0 - c - 1.0 / n - 1e-5 && f <= 1.0 + 1e-5, "{at}: {f:.4} outlined, at least {:.4} expected", 1.0 - c);
+                assert!(close(g, 0.8 + 0.2 * f) && close(b, f64::from(r)), "{at}: not outline and surface");
+            } else {
+                assert!(close(r, 0.8) && close(g, 0.8) && close(b, 0.8), "{at}: not the surface");
+            }
+        }
+    }
+    // `--outline` without a width is 1 (docs/commands.md): the same bytes
+    // as `--outline 1`, whose one outline column is the last hit's alone.
+    let (alone, one) = (dir.join("outline-alone.png"), dir.join("outline-1.png"));
+    run_ok(&["render", path.to_str().unwrap(), "-o", alone.to_str().unwrap(), "--outline", "--outline-color", "#00ff00"]);
+    run_ok(&["render", path.to_str().unwrap(), "-o", one.to_str().unwrap(), "--outline", "1", "--outline-color", "#00ff00"]);
+    assert!(std::fs::read(&alone).unwrap() == std::fs::read(&one).unwrap(), "--outline alone renders otherwise than --outline 1");
+    let alone = image::open(&alone).unwrap().to_rgb8();
+    for y in 0..h {
+        for x in 0..w {
+            let want = if x > last {
+                background
+            } else if x == last {
+                [0, 255, 0]
+            } else {
+                surface
+            };
+            assert_eq!(alone.get_pixel(x, y).0, want, "--outline alone: pixel ({x}, {y}), the last hit column {last}");
         }
     }
     let err = isomarch(["render", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "--outline", "0"]).fails_in_one_line();

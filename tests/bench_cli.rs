@@ -190,14 +190,14 @@ fn fig10_step_ratios_are_the_papers_table_1_within_a_quarter() {
     }
 }
 
-/// `bench --camera` without a size samples the scene camera's own frame
+/// `bench --camera-rays` without a size samples the scene camera's own frame
 /// (its `resolution`), as `--help` says; with a size, that frame.
 #[test]
 fn bench_camera_takes_the_scenes_resolution_when_no_size_is_given() {
-    let (text, report) = bench("fig10.ron", &["--methods", "segment", "--camera"], "bench-camera-default");
+    let (text, report) = bench("fig10.ron", &["--methods", "segment", "--camera-rays"], "bench-camera-default");
     assert_eq!(report["camera"], serde_json::json!([512, 512]), "{report}");
     assert!(text.contains("of the camera's 512x512 frame"), "{text}");
-    let (_, report) = bench("fig10.ron", &["--methods", "segment", "--camera", "64x48"], "bench-camera-size");
+    let (_, report) = bench("fig10.ron", &["--methods", "segment", "--camera-rays", "64x48"], "bench-camera-size");
     assert_eq!(report["camera"], serde_json::json!([64, 48]), "{report}");
 }
 

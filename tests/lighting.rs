@@ -280,7 +280,7 @@ fn any_hit_answers_agree_with_the_f64_reference_ray_by_ray() {
     for (name, scene, extra) in cases {
         let out = dir.join(format!("{name}.json"));
         let methods = METHODS.join(",");
-        let mut args = vec!["bench", scene.to_str().unwrap(), "--any-hit", "--camera", "128x128", "--rays", "1024"];
+        let mut args = vec!["bench", scene.to_str().unwrap(), "--any-hit", "--camera-rays", "128x128", "--rays", "1024"];
         args.extend_from_slice(&["--methods", &methods, "--json", out.to_str().unwrap()]);
         args.extend_from_slice(extra);
         run_ok(&args);

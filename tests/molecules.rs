@@ -262,7 +262,7 @@ fn batch_frames_turn_the_camera_around_the_molecule() {
     assert!(d <= 8, "a quarter turn of the camera differs from the world turned back in {d} pixels");
 }
 
-/// On a sample of a molecule's camera rays (`bench --camera`), every
+/// On a sample of a molecule's camera rays (`bench --camera-rays`), every
 /// conservative Algorithm 1 method and the bisection baselines find every
 /// crossing of the f64 reference and no other, within the match window;
 /// field inversion with the conservative hit rule misses at most 1% (its
@@ -275,7 +275,7 @@ fn a_molecules_camera_rays_match_the_reference_for_every_conservative_method() {
     isomarch([
         "bench",
         pdb_1a8o().to_str().unwrap(),
-        "--camera",
+        "--camera-rays",
         "64x64",
         "--rays",
         "1024",

@@ -141,17 +141,23 @@ fn a_scene_written_with_view_flags_renders_as_the_flags_do() {
         isomarch(["render", input.to_str().unwrap(), "-o", png.to_str().unwrap()]).args(extra).ok();
         std::fs::read(png).unwrap()
     };
-    assert_eq!(
-        render_sized(&whole, &[], "whole.png"),
-        render_sized(&pdb, &["--camera", camera.to_str().unwrap(), "--turntable", "8"], "camera.png"),
-        "scene --camera and render --camera differ"
-    );
+    let with_camera = render_sized(&pdb, &["--camera", camera.to_str().unwrap(), "--turntable", "8"], "camera.png");
+    assert_eq!(render_sized(&whole, &[], "whole.png"), with_camera, "scene --camera and render --camera differ");
+    // The file's camera is used, not the molecule's own: its resolution,
+    // and a view that is not the plain render's at that size.
+    let shown = image::load_from_memory(&with_camera).unwrap();
+    assert_eq!((shown.width(), shown.height()), (48, 40), "render --camera does not take the camera's resolution");
+    let plain = dir.join("plain-48x40.png");
+    isomarch(["render", pdb.to_str().unwrap(), "-o", plain.to_str().unwrap(), "--size", "48x40", "--turntable", "8"]).ok();
+    let plain = image::open(&plain).unwrap().to_rgb8();
+    let differing = shown.to_rgb8().pixels().zip(plain.pixels()).filter(|(p, q)| p != q).count();
+    assert!(differing > 200, "render --camera differs from the molecule's own camera in only {differing} of 1920 pixels");
 }
 
 /// Orthographic projection in closed form: a sphere of radius ρ renders as
 /// a disc of ρ/h·H pixels (view height h, image height H) whatever the
 /// eye's distance, within a pixel; the scene file's `projection` is the
-/// flag's, byte for byte; on 1A8O's camera rays, `bench --camera` against
+/// flag's, byte for byte; on 1A8O's camera rays, `bench --camera-rays` against
 /// the f64 reference on the same parallel rays: no miss, no false hit.
 #[test]
 fn an_orthographic_view_draws_a_sphere_its_size_at_any_distance() {
@@ -178,16 +184,33 @@ fn an_orthographic_view_draws_a_sphere_its_size_at_any_distance() {
     isomarch(["render", ball(30.0, ", projection: Orthographic(height: 8.0)").to_str().unwrap(), "-o", file.to_str().unwrap()]).ok();
     isomarch(["render", ball(30.0, "").to_str().unwrap(), "-o", flag.to_str().unwrap(), "--ortho", "8"]).ok();
     assert_eq!(std::fs::read(&file).unwrap(), std::fs::read(&flag).unwrap());
-    // Without a height: the perspective view's height at the target.
-    isomarch(["render", ball(30.0, "").to_str().unwrap(), "-o", flag.to_str().unwrap(), "--ortho"]).ok();
-    let h = 2.0 * 30.0 * 15f64.to_radians().tan();
-    assert!((radius(&flag) - rho / h * 96.0).abs() < 1.0, "--ortho alone: {:.2} pixels", radius(&flag));
+    // Without a height: the perspective view's height at the target,
+    // h = 2 d tan(15°), pixel by pixel. The eye at d = 10 makes h = 5.36
+    // and a disc of 16 pixels' radius; every pixel whose centre lies more
+    // than 0.01 (0.18 pixels) inside the sphere's outline hits and every
+    // pixel more than 0.01 outside misses, so a height 2% off fails (15%
+    // passed the disc's area within a pixel).
+    let (d, png) = (10.0, dir.join("ortho-default.png"));
+    isomarch(["render", ball(d, "").to_str().unwrap(), "-o", png.to_str().unwrap(), "--ortho"]).ok();
+    let h = 2.0 * d * 15f64.to_radians().tan();
+    let img = image::open(&png).unwrap().to_rgb8();
+    let mut inside = 0;
+    for (x, y, p) in img.enumerate_pixels() {
+        // The pixel's centre on the view plane, scene units from the axis.
+        let (sx, sy) = ((f64::from(x) + 0.5) / 96.0 - 0.5, 0.5 - (f64::from(y) + 0.5) / 96.0);
+        let r = h * sx.hypot(sy);
+        let hit = p.0.iter().any(|&c| c > 0);
+        assert!(r >= rho - 0.01 || hit, "--ortho alone: pixel ({x}, {y}) at {r:.4} from the axis, inside the sphere's {rho:.4}, missed");
+        assert!(r <= rho + 0.01 || !hit, "--ortho alone: pixel ({x}, {y}) at {r:.4} from the axis, outside the sphere's {rho:.4}, hit");
+        inside += usize::from(r < rho - 0.01);
+    }
+    assert!(inside > 700, "--ortho alone: only {inside} pixels inside the disc");
     let err = isomarch(["render", ball(30.0, "").to_str().unwrap(), "-o", flag.to_str().unwrap(), "--ortho=0"]).fails_in_one_line();
     assert!(err.contains("--ortho takes the view's height"), "{err}");
     // The f64 reference on the same parallel rays.
     let bench = dir.join("bench.json");
     let pdb = repo_root().join("tests/data/molecules/1A8O.pdb");
-    isomarch(["bench", pdb.to_str().unwrap(), "--camera", "40x40", "--rays", "1600", "--ortho", "--methods", "quadratic-taylor,segment"])
+    isomarch(["bench", pdb.to_str().unwrap(), "--camera-rays", "40x40", "--rays", "1600", "--ortho", "--methods", "quadratic-taylor,segment"])
         .args(["--json", bench.to_str().unwrap()])
         .ok();
     let report = json(&bench);
@@ -263,6 +286,17 @@ fn depth_cueing_blends_a_tilted_plane_by_its_depth() {
         }
     }
     assert!(checked > 1000 && blended > 200, "{checked} pixels on the plane, {blended} partly blended");
+    // `--depth-cue` without a value is 0.5:1 (docs/commands.md): the same
+    // bytes, and a blend that shows (the plane reaches beyond half the
+    // depth range).
+    let (alone, half) = (dir.join("cue-alone.png"), dir.join("cue-half.png"));
+    isomarch(["render", path.to_str().unwrap(), "-o", alone.to_str().unwrap(), "--depth-cue"]).ok();
+    isomarch(["render", path.to_str().unwrap(), "-o", half.to_str().unwrap(), "--depth-cue", "0.5:1"]).ok();
+    let alone_bytes = std::fs::read(&alone).unwrap();
+    assert!(alone_bytes == std::fs::read(&half).unwrap(), "--depth-cue alone renders otherwise than --depth-cue 0.5:1");
+    let alone = image::load_from_memory(&alone_bytes).unwrap().to_rgb8();
+    let changed = alone.pixels().zip(plain.pixels()).filter(|(p, q)| p != q).count();
+    assert!(changed > 100, "--depth-cue alone changed only {changed} pixels");
 }
 
 /// Clipping in closed form: a sphere of radius ρ = 3·sqrt(1 − cbrt(0.5))
@@ -314,9 +348,20 @@ fn a_clipped_sphere_shows_its_cap_on_the_cutting_plane() {
     assert!((measured - disc).abs() < 1.0, "a cap of radius {measured:.2} pixels, expected {disc:.2}");
     for (input, clip) in [(path.clone(), "near:12"), (repo_root().join("tests/data/molecules/1A8O.pdb"), "near:80,far:120")] {
         let bench = dir.join("bench.json");
-        isomarch(["bench", input.to_str().unwrap(), "--camera", "40x40", "--rays", "1600", "--clip", clip, "--methods", "quadratic-taylor,segment"])
-            .args(["--json", bench.to_str().unwrap()])
-            .ok();
+        isomarch([
+            "bench",
+            input.to_str().unwrap(),
+            "--camera-rays",
+            "40x40",
+            "--rays",
+            "1600",
+            "--clip",
+            clip,
+            "--methods",
+            "quadratic-taylor,segment",
+        ])
+        .args(["--json", bench.to_str().unwrap()])
+        .ok();
         let report = json(&bench);
         assert!(report["reference_hit_rate"].as_f64().unwrap() > 0.1, "{report}");
         for row in report["methods"].as_array().unwrap() {
@@ -327,4 +372,58 @@ fn a_clipped_sphere_shows_its_cap_on_the_cutting_plane() {
         let err = isomarch(["render", path.to_str().unwrap(), "-o", dir.join("x.png").to_str().unwrap(), "--clip", bad]).fails_in_one_line();
         assert!(err.contains("--clip"), "{bad}: {err}");
     }
+}
+
+/// `far` clipping in closed form: the sphere of radius ρ = 3·sqrt(1 −
+/// cbrt(0.5)) = 1.37 about the origin, the eye 12 away, `--clip far:11`
+/// (nothing farther than 11 from the eye's plane along the view). Far cuts
+/// are not capped: a pixel hits where its ray meets the sphere first at a
+/// view depth of at most 11, at that distance (the depth AOV), and misses
+/// where the sphere's front lies beyond 11 or the ray passes it by, every
+/// pixel 0.005 from either boundary checked. The front of the sphere
+/// reaches 10.63, so the far plane cuts the disc down to a cap of about 15
+/// pixels' radius (the unclipped disc has 21).
+#[test]
+fn a_far_clip_cuts_a_sphere_from_behind() {
+    let dir = scratch("view-far");
+    let path = dir.join("ball.ron");
+    let camera = "eye: (0.0, 0.0, 12.0), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96)";
+    std::fs::write(&path, ball_scene(camera, 3.0, "lights: [(direction: (0.3, 0.8, 0.5))],")).unwrap();
+    let exr = dir.join("far.exr");
+    isomarch(["render", path.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--clip", "far:11", "--aov", "depth"]).ok();
+    let depth = exr_channel(&exr::prelude::read_all_flat_layers_from_file(&exr).unwrap(), "Z");
+    let rho = 3.0 * (1.0 - 0.5f64.cbrt()).sqrt();
+    let (eye, far) = (DVec3::new(0.0, 0.0, 12.0), 11.0);
+    let half = 15f64.to_radians().tan();
+    let (mut hits, mut cut) = (0, 0);
+    for y in 0..96u32 {
+        for x in 0..96u32 {
+            let i = (y * 96 + x) as usize;
+            let (sx, sy) = ((2.0 * (f64::from(x) + 0.5) / 96.0 - 1.0) * half, (1.0 - 2.0 * (f64::from(y) + 0.5) / 96.0) * half);
+            let d = DVec3::new(sx, sy, -1.0).normalize();
+            // |eye + t d| = ρ: t = -b - sqrt(b² - c), b = eye·d, c = |eye|² - ρ².
+            let (b, c) = (eye.dot(d), eye.length_squared() - rho * rho);
+            let disc = b * b - c;
+            // Where the ray meets the sphere first, and that point's view depth.
+            let first = (disc > 0.0).then(|| -b - disc.sqrt());
+            let at = format!("pixel ({x}, {y}): depth {}", depth[i]);
+            match first {
+                Some(t) if (t * -d.z - far).abs() < 0.005 => {}
+                Some(t) if t * -d.z < far => {
+                    // Grazing rays (the chord under 0.1) may go either way.
+                    if disc.sqrt() < 0.05 {
+                        continue;
+                    }
+                    assert!((f64::from(depth[i]) - t).abs() < 1e-3, "{at}, where the sphere's front is at {t:.5}, before the far plane");
+                    hits += 1;
+                }
+                Some(t) => {
+                    assert!(!depth[i].is_finite(), "{at}, where the sphere's front lies at view depth {:.4}, beyond far:11", t * -d.z);
+                    cut += 1;
+                }
+                None => assert!(disc > -0.01 || !depth[i].is_finite(), "{at}, where the ray passes the sphere by"),
+            }
+        }
+    }
+    assert!(hits > 500 && cut > 400, "{hits} pixels kept before the far plane, {cut} cut away behind it");
 }

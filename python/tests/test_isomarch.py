@@ -353,6 +353,16 @@ def test_selections_and_values_per_frame_equal_the_clis(renderer, tmp_path):
     # The colours follow the rows: frame 1 with row 0's values differs.
     same = isomarch.Trajectory(top, traj, values=values[[0, 0, 0]])
     assert renderer.render(same[1], size=(40, 40)).png() != (tmp_path / "v_1.png").read_bytes(), "frame 1 took row 0's colours"
+    # Frame k takes row k: it renders as frame k of a trajectory whose every
+    # row is row k (the palette over the same range, 0:100, so that only the
+    # row taken can differ), and otherwise than with any other row.
+    ranged = isomarch.Trajectory(top, traj, values=values, range=(0.0, 100.0))
+    for k in range(3):
+        shown = renderer.render(ranged[k], size=(40, 40)).png()
+        for j in range(3):
+            row_j = isomarch.Trajectory(top, traj, values=values[[j, j, j]], range=(0.0, 100.0))
+            alike = renderer.render(row_j[k], size=(40, 40)).png() == shown
+            assert alike == (j == k), f"frame {k} renders {'as' if alike else 'otherwise than'} with row {j}'s values everywhere"
     with pytest.raises(isomarch.IsomarchError, match="3 rows of values, none for frame 5"):
         frames[5]
 
@@ -389,3 +399,43 @@ def test_depth_cue_outlines_and_a_transparent_background_equal_the_clis(renderer
     with pytest.raises(isomarch.IsomarchError) as e:
         renderer.render(scene, size=(8, 8), outline=0)
     assert str(e.value) == message[len("error: "):]
+
+
+def test_a_transparent_backgrounds_alpha_is_an_edges_coverage(renderer, tmp_path):
+    # A plane facing an orthographic camera (a view 1.6 high, so 8 wide on
+    # 40x8 pixels), cut by the scene's box at x = 0.37: a straight vertical
+    # edge at (0.37 + 4) / 8 * 40 = 21.85 pixels from the left, whatever the
+    # plane's depth. With 16 samples (one in each sixteenth of a pixel's
+    # width), each pixel's alpha is its coverage clamp(21.85 - x, 0, 1)
+    # within 1/16 and half an 8-bit level; covered pixels keep the surface's
+    # colour (0.8 linear, not blended with the background), uncovered ones
+    # are (0, 0, 0, 0). The command line makes the same PNG.
+    path = tmp_path / "edge.ron"
+    path.write_text(
+        """Scene(
+    camera: (eye: (0.0, 0.0, 10.0), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (40, 8),
+             projection: Orthographic(height: 1.6)),
+    background: (0.1, 0.1, 0.1),
+    ambient: (0.8, 0.8, 0.8),
+    surface: (1.0, 1.0, 1.0),
+    lights: [(direction: (1.0, 0.0, 0.0))],
+    iso: 0.5,
+    bounds: Some((min: (-100.0, -100.0, -2.0), max: (0.37, 100.0, 2.0))),
+    marching: (method: "quadratic-taylor", min_step: 0.001),
+    groups: [(primitives: [Plane(normal: (0.0, 0.0, 1.0), offset: 0.0, radius: 1.0)])],
+)"""
+    )
+    image = renderer.render(isomarch.Scene.load(path), samples=16, transparent_background=True)
+    cli("render", path, "-o", tmp_path / "edge.png", "--samples", "16", "--transparent-background")
+    assert image.png() == (tmp_path / "edge.png").read_bytes(), "Python's PNG is not the command line's"
+    rgba = image.rgba.astype(np.float64)
+    assert rgba.shape == (8, 40, 4)
+    edge = (0.37 + 4.0) / 8.0 * 40.0
+    coverage = np.clip(edge - np.arange(40.0), 0.0, 1.0)[None, :].repeat(8, axis=0)
+    error = np.abs(rgba[..., 3] / 255.0 - coverage)
+    assert error.max() <= 1.0 / 16.0 + 0.5 / 255.0 + 1e-9, f"alpha off the coverage by {error.max():.4f} at {np.unravel_index(error.argmax(), error.shape)}"
+    assert ((rgba[..., 3] > 0) & (rgba[..., 3] < 255)).sum() == 8, "not one column of partly covered pixels"
+    surface = round(255 * (1.055 * 0.8 ** (1 / 2.4) - 0.055))
+    covered = rgba[..., 3] > 0
+    assert (np.abs(rgba[covered][:, :3] - surface) <= 1).all(), f"covered pixels not the surface's colour {surface}"
+    assert (rgba[~covered] == 0).all(), "uncovered pixels not (0, 0, 0, 0)"

@@ -39,9 +39,10 @@ pub struct BenchArgs {
     /// Instead of the protocol's rays, a seeded sample of `--rays` of the
     /// scene camera's pixel rays, without repeats: the rays a rendered
     /// frame marches. The frame is the scene's resolution, or WxH when
-    /// given (`--camera 750x750`).
+    /// given (`--camera-rays 750x750`). The camera is the scene's, or the
+    /// one `--camera FILE` gives.
     #[arg(long, value_parser = checks::parse_size, value_name = "WxH", num_args = 0..=1)]
-    camera: Option<Option<(u32, u32)>>,
+    camera_rays: Option<Option<(u32, u32)>>,
     /// Run the whole list of methods this many times, interleaved, and
     /// report each time as the median over repeats with its range, and
     /// each time ratio as the median of the ratios within each repeat
@@ -216,7 +217,7 @@ impl TryFrom<BenchArgs> for Plan {
         // An animated scene is measured as posed at time 0.
         let scene = args.flags.open(&args.scene, args.trajectory.as_deref(), &args.play)?.scene(args.play.frame)?.at_time(0.0);
         let variants = args.variants.variants(&scene);
-        let camera = args.camera.map(|size| size.unwrap_or((scene.camera.width, scene.camera.height)));
+        let camera = args.camera_rays.map(|size| size.unwrap_or((scene.camera.width, scene.camera.height)));
         let plan = Plan {
             scene,
             methods,
@@ -305,4 +306,17 @@ pub fn run(args: BenchArgs) -> Result<()> {
         write_atomic(path, &png_bytes(&grid)?)?;
     }
     finish(&gpu.ctx)
+}
+
+/// `--camera-rays` as parsed: absent, without a size, or WxH.
+#[cfg(test)]
+pub type CameraRays = Option<Option<(u32, u32)>>;
+
+#[cfg(test)]
+impl BenchArgs {
+    /// The view flags' camera file and bench's frame of camera rays, as
+    /// parsed.
+    pub fn camera_frame(&self) -> (Option<&std::path::Path>, CameraRays) {
+        (self.flags.view.camera.as_deref(), self.camera_rays)
+    }
 }

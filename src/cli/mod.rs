@@ -128,3 +128,67 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Frames(args) => frames::run(args),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashMap;
+
+    use clap::CommandFactory;
+
+    use super::Cli;
+
+    /// Every argument of one command (its flattened groups included) has
+    /// its own id, long name and short name: two with one name (bench's
+    /// `--camera [WxH]` and the view flags' `--camera FILE`) parse as
+    /// whichever clap meets first, and the other cannot be given at all.
+    /// clap's own checks (`Command::debug_assert`) find this, but only where
+    /// clap is built with debug assertions, which the release-mode tests
+    /// are not; so the names are also compared here, in every build.
+    fn assert_names_unique(cmd: &clap::Command, path: &str) {
+        let path = format!("{path} {}", cmd.get_name());
+        let mut ids = HashMap::new();
+        let mut longs = HashMap::new();
+        let mut shorts = HashMap::new();
+        for arg in cmd.get_arguments() {
+            let id = arg.get_id().as_str();
+            if let Some(before) = ids.insert(id.to_string(), id.to_string()) {
+                panic!("{path}: two arguments have the id {before}");
+            }
+            for long in arg.get_long().into_iter().chain(arg.get_all_aliases().into_iter().flatten()) {
+                if let Some(other) = longs.insert(long.to_string(), id.to_string()) {
+                    panic!("{path}: --{long} names both {other} and {id}");
+                }
+            }
+            for short in arg.get_short().into_iter().chain(arg.get_all_short_aliases().into_iter().flatten()) {
+                if let Some(other) = shorts.insert(short, id.to_string()) {
+                    panic!("{path}: -{short} names both {other} and {id}");
+                }
+            }
+        }
+        for sub in cmd.get_subcommands() {
+            assert_names_unique(sub, &path);
+        }
+    }
+
+    /// The whole command line passes clap's checks of its definition
+    /// (duplicate names, conflicts and requirements that name no argument,
+    /// positional order), and no command gives one name to two arguments.
+    #[test]
+    fn the_command_line_is_well_formed() {
+        Cli::command().debug_assert();
+        assert_names_unique(&Cli::command(), "");
+    }
+
+    /// `bench --camera FILE` is the view flag (docs/commands.md), and bench's
+    /// sample of the camera's rays is `--camera-rays [WxH]`.
+    #[test]
+    fn bench_takes_a_camera_file_and_a_frame_of_camera_rays() {
+        use clap::Parser;
+        let cli = Cli::try_parse_from(["isomarch", "bench", "scenes/fig10.ron", "--camera", "cam.ron", "--camera-rays", "64x48"]).unwrap();
+        let super::Command::Bench(args) = cli.command else { panic!("not bench") };
+        assert_eq!(args.camera_frame(), (Some(std::path::Path::new("cam.ron")), Some(Some((64, 48)))));
+        let cli = Cli::try_parse_from(["isomarch", "bench", "scenes/fig10.ron", "--camera-rays"]).unwrap();
+        let super::Command::Bench(args) = cli.command else { panic!("not bench") };
+        assert_eq!(args.camera_frame(), (None, Some(None)));
+    }
+}
