@@ -13,4 +13,4 @@ pub use context::{Context, ContextOptions, DeviceInfo, list_devices};
 pub use pipeline::ComputePipeline;
 pub use present::{Presented, Presenter};
 pub use submit::{GpuError, Submitter};
-pub use transfer::{Fetch, TransferStats, Transfers};
+pub use transfer::{Fetch, TransferStats, Transfers, memory_barrier};

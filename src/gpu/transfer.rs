@@ -179,17 +179,14 @@ impl Transfers {
                     d.cmd_copy_buffer(cmd, upload.handle, r.buffer, &[region]);
                 }
             }
-            let barrier = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_READ);
-            d.cmd_pipeline_barrier(
+            memory_barrier(
+                d,
                 cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-                vk::DependencyFlags::empty(),
-                &[barrier],
-                &[],
-                &[],
+                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+                (
+                    vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                    vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_READ,
+                ),
             );
         }
     }
@@ -205,31 +202,24 @@ impl Transfers {
         };
         // SAFETY: as the caller promises; the staging was sized in prepare.
         unsafe {
-            let to_copy = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
-            d.cmd_pipeline_barrier(
+            memory_barrier(
+                d,
                 cmd,
-                vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::DependencyFlags::empty(),
-                &[to_copy],
-                &[],
-                &[],
+                (
+                    vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                    vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
+                ),
+                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
             );
             for r in &self.reads {
                 let region = vk::BufferCopy { src_offset: r.src, dst_offset: r.dst, size: r.size };
                 d.cmd_copy_buffer(cmd, r.buffer, readback.handle, &[region]);
             }
-            let to_host = vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(vk::AccessFlags::HOST_READ);
-            d.cmd_pipeline_barrier(
+            memory_barrier(
+                d,
                 cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::HOST,
-                vk::DependencyFlags::empty(),
-                &[to_host],
-                &[],
-                &[],
+                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+                (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
             );
         }
     }
@@ -267,4 +257,20 @@ impl Transfers {
         let readback = self.readback.as_mut().ok_or_else(|| anyhow::anyhow!("a read with no staging"))?;
         readback.read_at::<T>(fetch.offset, fetch.size as usize / size_of::<T>())
     }
+}
+
+/// Records a global memory barrier: `src` stages' `src_access` writes made
+/// available and visible to `dst` stages' `dst_access`.
+///
+/// # Safety
+/// `cmd` is recording on `d`.
+pub unsafe fn memory_barrier(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    (src, src_access): (vk::PipelineStageFlags, vk::AccessFlags),
+    (dst, dst_access): (vk::PipelineStageFlags, vk::AccessFlags),
+) {
+    let barrier = vk::MemoryBarrier::default().src_access_mask(src_access).dst_access_mask(dst_access);
+    // SAFETY: as the caller promises.
+    unsafe { d.cmd_pipeline_barrier(cmd, src, dst, vk::DependencyFlags::empty(), &[barrier], &[], &[]) };
 }
