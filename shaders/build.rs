@@ -154,13 +154,19 @@ fn shader_cache(out: &Path) -> Option<PathBuf> {
     (build.file_name()? == "build").then(|| build.parent().map(|profile| profile.join("shader-cache")))?
 }
 
-/// The identity of the shaderc that compiles: its linked archive's size and
-/// modification time where SHADERC_LIB_DIR names one, else the crate's.
+/// The identity of the shaderc that compiles: a hash of its linked
+/// archive's bytes where SHADERC_LIB_DIR names one (each clone merges its
+/// own copy of Debian's libraries, alike but for the time it was made),
+/// else the crate's.
 fn shaderc_identity() -> String {
+    use std::hash::{Hash, Hasher};
     let archive = std::env::var_os("SHADERC_LIB_DIR").map(|d| PathBuf::from(d).join("libshaderc_combined.a"));
-    let meta = archive.as_ref().and_then(|a| std::fs::metadata(a).ok());
-    match meta {
-        Some(m) => format!("archive {} {:?}", m.len(), m.modified().ok()),
+    match archive.and_then(|a| std::fs::read(a).ok()) {
+        Some(bytes) => {
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            bytes.hash(&mut h);
+            format!("archive of {} bytes, hash {:016x}", bytes.len(), h.finish())
+        }
         None => "shaderc-sys built from source".to_string(),
     }
 }
