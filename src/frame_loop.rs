@@ -50,13 +50,7 @@ pub struct LoopReport {
 impl LoopReport {
     /// The median of `f` over the frames (NaN without any).
     fn median(&self, f: impl Fn(&LoopFrame) -> Option<f64>) -> f64 {
-        let mut v: Vec<f64> = self.frames.iter().filter_map(f).collect();
-        v.sort_by(f64::total_cmp);
-        match v.len() {
-            0 => f64::NAN,
-            n if n % 2 == 1 => v[n / 2],
-            n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-        }
+        crate::stats::median(&self.frames.iter().filter_map(f).collect::<Vec<f64>>())
     }
 
     /// Median wall milliseconds per frame.
@@ -133,11 +127,7 @@ pub fn run(ctx: &Arc<Context>, job: &RenderJob, trajectory: Option<Stager>, coun
         let made = renderer.pipeline_ms() - pipeline_ms;
         pipeline_ms = renderer.pipeline_ms();
         let now = renderer.transfer_stats();
-        let transfers = TransferStats {
-            readback_bytes: now.readback_bytes - before.readback_bytes,
-            upload_bytes: now.upload_bytes - before.upload_bytes,
-            submits: now.submits - before.submits,
-        };
+        let transfers = now - before;
         before = now;
         frames.push(LoopFrame { wall_ms: started.elapsed().as_secs_f64() * 1e3 - made, gpu_ms, transfers });
         progress(k + 1);

@@ -27,11 +27,16 @@ pub struct TransferStats {
     pub submits: u64,
 }
 
-impl std::ops::AddAssign for TransferStats {
-    fn add_assign(&mut self, o: TransferStats) {
-        self.readback_bytes += o.readback_bytes;
-        self.upload_bytes += o.upload_bytes;
-        self.submits += o.submits;
+/// What crossed between two readings of the counts (a frame's share).
+impl std::ops::Sub for TransferStats {
+    type Output = TransferStats;
+
+    fn sub(self, o: TransferStats) -> TransferStats {
+        TransferStats {
+            readback_bytes: self.readback_bytes - o.readback_bytes,
+            upload_bytes: self.upload_bytes - o.upload_bytes,
+            submits: self.submits - o.submits,
+        }
     }
 }
 
