@@ -4,9 +4,13 @@
 # step heatmaps of segment tracing and quadratic Taylor side by side on one
 # scale to out/default-steps-grid.png (the paper's result, on this machine).
 # Installs what is missing and builds first. Extra arguments go to `render`.
+# Builds isomarch without the window (the `window` feature: winit and its
+# protocols are nearly half of a first build): scripts/view.sh, the test
+# suite and a plain `cargo build` add it. The march kernel is compiled on
+# first use and kept in ~/.cache/isomarch/spirv.
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 cd "$ISOMARCH_ROOT"
-cargo build --release --locked
+cargo build --release --locked --no-default-features
 B="$CARGO_TARGET_DIR/release/isomarch"
 "$B" render scenes/default.ron -o out/default.png \
     --heatmap out/default-steps.png --stats out/default-stats.json "$@"

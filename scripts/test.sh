@@ -13,6 +13,7 @@ cd "$ISOMARCH_ROOT"
 cargo fmt --all --check
 cargo clippy --workspace --release --locked --all-targets -- -D warnings
 # One profile (release) for tests and runs: shaderc is built once.
+cargo test --release --locked -p isomarch-shaders
 cargo test --release --locked "$@"
 # The Python package (python/): built into a venv, its pytest suite.
 bash scripts/python-test.sh

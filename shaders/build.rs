@@ -1,13 +1,17 @@
-//! Compiles `shaders/*.comp` to SPIR-V with shaderc (glslang), for this
-//! crate's constants (src/lib.rs).
+//! Prepares `shaders/*.comp` for compilation at run time (src/lib.rs):
+//! generates `layout.glsl` and `layout_bindings.glsl` from `src/layout.rs`
+//! (the single source of GPU layouts and descriptor bindings), checks that
+//! every kernel compiles, and writes `OUT_DIR/kernels.rs`, which embeds
+//! every source and include with the key its SPIR-V is cached under.
 //!
-//! Includes resolve against `shaders/include/` (a kind's file by its path
-//! there, `kinds/hrbf.glsl`) and the generated
-//! `layout.glsl` and `layout_bindings.glsl` (from `src/layout.rs`, the
-//! single source of GPU layouts and descriptor bindings).
-//! Warnings are errors; a shader error fails the build with glslang's
-//! file:line message. SPIR-V lands in `OUT_DIR`, never in the tree.
+//! The check compiles without optimisation (a fraction of a second a
+//! kernel), so a shader error still fails the build with glslang's
+//! file:line message, warnings included. The optimised SPIR-V is made when
+//! a program first needs a kernel: spirv-opt's performance passes spend
+//! about a minute on each marching kernel on 2 cores, and a picture needs
+//! one or two of the eight (docs/performance.md, "The shaders' build").
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 #[path = "../src/layout.rs"]
@@ -36,122 +40,110 @@ fn run() -> Result<(), String> {
     println!("cargo:rerun-if-changed={}", include_dir.display());
     println!("cargo:rerun-if-changed={}", kinds_dir.display());
 
-    let generated = layout::glsl();
-    std::fs::write(out.join("layout.glsl"), &generated).map_err(|e| format!("writing layout.glsl: {e}"))?;
-    let bindings = layout::glsl_bindings_file();
-    std::fs::write(out.join("layout_bindings.glsl"), &bindings).map_err(|e| format!("writing layout_bindings.glsl: {e}"))?;
-
-    // Every input a shader's SPIR-V depends on, for the cache's key: the
-    // includes, the generated layout, the shaderc linked.
-    let mut inputs = vec![generated.clone(), bindings.clone(), shaderc_identity()];
+    // The includes, by their name within the include folder (a kind's by
+    // its path there, `kinds/hrbf.glsl`), then the two generated ones.
+    let mut includes: Vec<(String, PathBuf)> = Vec::new();
     for file in sorted_files(&include_dir, "glsl")?.into_iter().chain(sorted_files(&kinds_dir, "glsl")?) {
         println!("cargo:rerun-if-changed={}", file.display());
-        // By name within the include folder: clones elsewhere share the cache.
-        inputs.push(file.strip_prefix(&include_dir).unwrap_or(&file).display().to_string());
-        inputs.push(std::fs::read_to_string(&file).map_err(|e| format!("reading {}: {e}", file.display()))?);
+        let name = file.strip_prefix(&include_dir).unwrap_or(&file).display().to_string();
+        includes.push((name, file));
     }
-    let cache = shader_cache(&out);
+    for (name, text) in [("layout.glsl", layout::glsl()), ("layout_bindings.glsl", layout::glsl_bindings_file())] {
+        let path = out.join(name);
+        std::fs::write(&path, text).map_err(|e| format!("writing {name}: {e}"))?;
+        includes.push((name.to_string(), path));
+    }
+    let mut contents = Vec::new();
+    for (name, path) in &includes {
+        contents.push((name.clone(), std::fs::read_to_string(path).map_err(|e| format!("reading {}: {e}", path.display()))?));
+    }
+    // What every kernel's SPIR-V depends on besides its own source and
+    // define: the includes (by name, so that clones share the cache) and
+    // the shaderc linked.
+    let shared_key = {
+        let mut inputs = vec![shaderc_identity()];
+        for (name, text) in &contents {
+            inputs.push(name.clone());
+            inputs.push(text.clone());
+        }
+        inputs
+    };
 
     // Every shader, and once more per build variant of
-    // layout::shader_variants: (source, output stem, macro).
-    let mut jobs = Vec::new();
+    // layout::shader_variants.
+    let mut kernels = Vec::new();
     for file in sorted_files(&shaders, "comp")? {
         println!("cargo:rerun-if-changed={}", file.display());
         let stem = file.file_stem().and_then(|s| s.to_str()).ok_or("shader name is not UTF-8")?.to_string();
+        let source = std::fs::read_to_string(&file).map_err(|e| format!("reading {}: {e}", file.display()))?;
+        kernels.push(Kernel { name: stem.clone(), file: file.clone(), source: source.clone(), define: None });
         for (macro_name, value, suffix) in layout::shader_variants(&stem) {
-            jobs.push((file.clone(), format!("{stem}{suffix}"), Some((macro_name, value))));
+            kernels.push(Kernel { name: format!("{stem}{suffix}"), file: file.clone(), source: source.clone(), define: Some((macro_name, value)) });
         }
-        jobs.push((file, stem, None));
     }
-    // Two threads taking jobs from one queue, heaviest first: spirv-opt
-    // spends most of a minute on each marching kernel, so the two go to
-    // different threads and the small shaders fill in behind them. On a
-    // fresh build this script is the last long job, so its balance is the
-    // first build's wall time.
-    // Heaviest first (their SPIR-V today: march_indexed 890 kB, march 480,
-    // bounds_indexed 390, bounds 200, index 12); unknown shaders last.
-    const HEAVIEST_FIRST: [&str; 2] = ["march", "bounds"];
-    jobs.sort_by_key(|(file, _, define)| {
-        let stem = file.file_stem().and_then(|s| s.to_str()).unwrap_or_default();
-        (HEAVIEST_FIRST.iter().position(|&h| h == stem).unwrap_or(HEAVIEST_FIRST.len()), define.is_none())
-    });
-    let optimization = optimization()?;
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let times = std::sync::Mutex::new(Vec::new());
-    let failures: Vec<String> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..2)
-            .map(|_| {
-                let shared = Shared {
-                    generated: &generated,
-                    bindings: &bindings,
-                    include_dir: &include_dir,
-                    out: &out,
-                    optimization,
-                    inputs: &inputs,
-                    cache: cache.as_deref(),
-                };
-                let (jobs, next, times) = (&jobs, &next, &times);
-                scope.spawn(move || {
-                    let mut failures = Vec::new();
-                    while let Some((file, stem, define)) = jobs.get(next.fetch_add(1, std::sync::atomic::Ordering::Relaxed)) {
-                        let started = std::time::Instant::now();
-                        if let Err(e) = compile(file, stem, *define, &shared) {
-                            failures.push(e);
-                        }
-                        if let Ok(mut t) = times.lock() {
-                            t.push(format!("{stem}\t{:.2}", started.elapsed().as_secs_f64()));
-                        }
-                    }
-                    failures
-                })
-            })
-            .collect();
-        handles.into_iter().flat_map(|h| h.join().unwrap_or_else(|_| vec!["a shader compile thread panicked".into()])).collect()
-    });
-    // Each shader's compile time, seconds, for whoever asks where the
-    // build's minutes go (issue 53): OUT_DIR/shader-times.tsv.
-    let mut times = times.into_inner().unwrap_or_default();
-    times.sort();
-    std::fs::write(out.join("shader-times.tsv"), format!("shader\tseconds\n{}\n", times.join("\n")))
-        .map_err(|e| format!("writing shader-times.tsv: {e}"))?;
-    if failures.is_empty() { Ok(()) } else { Err(failures.join("\n")) }
-}
 
-/// The optimisation shaderc applies: `ISOMARCH_SHADER_OPT=performance`
-/// (spirv-opt's performance passes), `zero` (none), or by default the one
-/// measured to pay (see the function's body).
-fn optimization() -> Result<shaderc::OptimizationLevel, String> {
-    println!("cargo:rerun-if-env-changed=ISOMARCH_SHADER_OPT");
-    match std::env::var("ISOMARCH_SHADER_OPT").as_deref() {
-        Err(_) | Ok("") | Ok("performance") => Ok(shaderc::OptimizationLevel::Performance),
-        Ok("zero") => Ok(shaderc::OptimizationLevel::Zero),
-        Ok(other) => Err(format!("ISOMARCH_SHADER_OPT={other:?}: expected performance or zero")),
+    // The check: every kernel compiles, warnings as errors.
+    let compiler = shaderc::Compiler::new().map_err(|e| format!("shaderc: {e}"))?;
+    let failures: Vec<String> = kernels.iter().filter_map(|k| check(&compiler, k, &contents).err()).collect();
+    if !failures.is_empty() {
+        return Err(failures.join("\n"));
     }
+
+    // kernels.rs: the includes and the kernels, embedded by include_str!
+    // (so that rustc rebuilds this crate when one changes).
+    let mut rs =
+        String::from("// Generated by shaders/build.rs.\n\n/// The includes: (name, text).\npub(crate) static INCLUDES: &[(&str, &str)] = &[\n");
+    for (name, path) in &includes {
+        let _ = writeln!(rs, "    ({name:?}, include_str!({:?})),", path.display().to_string());
+    }
+    rs.push_str("];\n\n/// The kernels, in the order of `Kernel::ALL`.\npub(crate) static SOURCES: &[KernelSource] = &[\n");
+    for k in &kernels {
+        let define = match k.define {
+            Some((name, value)) => format!("Some(({name:?}, {value:?}))"),
+            None => "None".into(),
+        };
+        let _ = writeln!(
+            rs,
+            "    KernelSource {{ name: {:?}, file: {:?}, source: include_str!({:?}), define: {define}, key: {:?} }},",
+            k.name,
+            k.file.file_name().and_then(|n| n.to_str()).unwrap_or_default(),
+            k.file.display().to_string(),
+            key(k, &shared_key),
+        );
+    }
+    rs.push_str("];\n");
+    std::fs::write(out.join("kernels.rs"), rs).map_err(|e| format!("writing kernels.rs: {e}"))
 }
 
-/// What every shader's compilation shares: the generated includes, the
-/// include folder, the output folder and the optimisation.
-struct Shared<'a> {
-    generated: &'a str,
-    bindings: &'a str,
-    include_dir: &'a Path,
-    out: &'a Path,
-    optimization: shaderc::OptimizationLevel,
-    /// What every shader depends on besides its own source ([`key`]).
-    inputs: &'a [String],
-    cache: Option<&'a Path>,
+struct Kernel {
+    name: String,
+    file: PathBuf,
+    source: String,
+    define: Option<(&'static str, &'static str)>,
 }
 
-/// Where compiled SPIR-V is kept by the hash of everything it was made
-/// from: `shader-cache/` in the profile's folder of the target dir. Every
-/// command that builds this crate's build script anew (clippy, whose
-/// workspace wrapper changes the hash of local packages' units; maturin,
-/// whose features differ; a second clone sharing the target dir) finds the
-/// shaders compiled once there instead of spending minutes on them again.
-/// `None` where OUT_DIR is not inside a target dir's `build/` folder.
-fn shader_cache(out: &Path) -> Option<PathBuf> {
-    let build = out.parent()?.parent()?;
-    (build.file_name()? == "build").then(|| build.parent().map(|profile| profile.join("shader-cache")))?
+/// Compiles a kernel without optimisation and throws the SPIR-V away.
+fn check(compiler: &shaderc::Compiler, k: &Kernel, includes: &[(String, String)]) -> Result<(), String> {
+    let mut options = shaderc::CompileOptions::new().map_err(|e| format!("shaderc options: {e}"))?;
+    options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
+    options.set_source_language(shaderc::SourceLanguage::GLSL);
+    options.set_optimization_level(shaderc::OptimizationLevel::Zero);
+    options.set_warnings_as_errors();
+    if let Some((name, value)) = k.define {
+        options.add_macro_definition(name, Some(value));
+    }
+    let includes = includes.to_vec();
+    options.set_include_callback(move |name, _kind, _from, _depth| {
+        includes
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(n, text)| shaderc::ResolvedInclude { resolved_name: n.clone(), content: text.clone() })
+            .ok_or_else(|| format!("cannot include {name}: no such file in shaders/include"))
+    });
+    compiler
+        .compile_into_spirv(&k.source, shaderc::ShaderKind::Compute, &k.file.display().to_string(), "main", Some(&options))
+        .map(|_| ())
+        .map_err(|e| format!("shader compilation failed ({}):\n{e}", k.name))
 }
 
 /// The identity of the shaderc that compiles: a hash of its linked
@@ -172,76 +164,20 @@ fn shaderc_identity() -> String {
 }
 
 /// A 128-bit key (two SipHash passes with different prefixes, hex) of a
-/// shader's name and source, its define, the optimisation and the shared
-/// inputs.
-fn key(stem: &str, source: &str, define: Option<(&str, &str)>, shared: &Shared) -> String {
+/// kernel's name, source and define and the shared inputs. The run time
+/// adds the optimisation to it.
+fn key(k: &Kernel, shared: &[String]) -> String {
     use std::hash::{Hash, Hasher};
     let half = |salt: u8| {
         let mut h = std::collections::hash_map::DefaultHasher::new();
         salt.hash(&mut h);
-        stem.hash(&mut h);
-        source.hash(&mut h);
-        define.hash(&mut h);
-        format!("{:?}", shared.optimization).hash(&mut h);
-        shared.inputs.hash(&mut h);
+        k.name.hash(&mut h);
+        k.source.hash(&mut h);
+        k.define.hash(&mut h);
+        shared.hash(&mut h);
         h.finish()
     };
     format!("{:016x}{:016x}", half(1), half(2))
-}
-
-/// Compiles one shader to `OUT_DIR/{stem}.spv`, with `define` set.
-fn compile(file: &Path, stem: &str, define: Option<(&str, &str)>, shared: &Shared) -> Result<(), String> {
-    let Shared { generated, bindings, include_dir, out, optimization, .. } = *shared;
-    let source = std::fs::read_to_string(file).map_err(|e| format!("reading {}: {e}", file.display()))?;
-    let target = out.join(format!("{stem}.spv"));
-    let cached = shared.cache.map(|c| c.join(format!("{}.spv", key(stem, &source, define, shared))));
-    if let Some(c) = &cached
-        && std::fs::copy(c, &target).is_ok()
-    {
-        return Ok(());
-    }
-    let compiler = shaderc::Compiler::new().map_err(|e| format!("shaderc: {e}"))?;
-    let mut options = shaderc::CompileOptions::new().map_err(|e| format!("shaderc options: {e}"))?;
-    options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
-    options.set_source_language(shaderc::SourceLanguage::GLSL);
-    options.set_optimization_level(optimization);
-    options.set_warnings_as_errors();
-    if let Some((name, value)) = define {
-        options.add_macro_definition(name, Some(value));
-    }
-    let (generated, bindings, include_root) = (generated.to_string(), bindings.to_string(), include_dir.to_path_buf());
-    options.set_include_callback(move |name, _kind, _from, _depth| {
-        if name == "layout.glsl" {
-            return Ok(shaderc::ResolvedInclude { resolved_name: "layout.glsl (generated from src/layout.rs)".into(), content: generated.clone() });
-        }
-        if name == "layout_bindings.glsl" {
-            return Ok(shaderc::ResolvedInclude {
-                resolved_name: "layout_bindings.glsl (generated from src/layout.rs)".into(),
-                content: bindings.clone(),
-            });
-        }
-        let path = include_root.join(name);
-        std::fs::read_to_string(&path)
-            .map(|content| shaderc::ResolvedInclude { resolved_name: path.display().to_string(), content })
-            .map_err(|e| format!("cannot include {}: {e}", path.display()))
-    });
-    let name = file.display().to_string();
-    let artifact = compiler
-        .compile_into_spirv(&source, shaderc::ShaderKind::Compute, &name, "main", Some(&options))
-        .map_err(|e| format!("shader compilation failed ({stem}):\n{e}"))?;
-    std::fs::write(&target, artifact.as_binary_u8()).map_err(|e| format!("writing {stem}.spv: {e}"))?;
-    // Into the cache under a temporary name, then renamed: a reader never
-    // sees half a file. A cache that cannot be written costs only time.
-    if let Some(c) = cached
-        && let Some(dir) = c.parent()
-        && std::fs::create_dir_all(dir).is_ok()
-    {
-        let tmp = dir.join(format!(".{stem}.{}.tmp", std::process::id()));
-        if std::fs::write(&tmp, artifact.as_binary_u8()).is_ok() && std::fs::rename(&tmp, &c).is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
-    }
-    Ok(())
 }
 
 /// Says in the build's output which shaderc compiles the shaders: Debian's

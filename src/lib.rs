@@ -28,6 +28,14 @@ pub mod scene;
 pub mod settings;
 pub mod stats;
 pub mod tradeoff;
+/// The compute kernels and where their SPIR-V is kept (`isomarch-shaders`).
+pub use isomarch_shaders as shaders;
+#[cfg(feature = "window")]
 pub mod view;
+
+/// Why `isomarch view` refuses in a build without the `window` feature,
+/// and what builds it.
+pub const WITHOUT_WINDOW: &str = "this isomarch was built without the window (scripts/render-default.sh builds \
+     the quickest one for the first picture): `bash scripts/view.sh SCENE [ARGS]` builds it with the window and opens SCENE";
 
 pub use method::Method;

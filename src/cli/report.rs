@@ -3,6 +3,7 @@
 use isomarch::method::Method;
 use isomarch::render::offscreen::{RenderJob, RenderStats};
 use isomarch::scene::Scene;
+#[cfg(feature = "window")]
 use isomarch::view::ViewSummary;
 
 /// Lines on stderr where the image will not be what the flags suggest:
@@ -77,6 +78,7 @@ pub fn render(job: &RenderJob, s: &RenderStats) {
 }
 
 /// `view`'s summary at exit: frames presented, and a trajectory's playback.
+#[cfg(feature = "window")]
 pub fn view(s: &ViewSummary) {
     println!(
         "presented {} ({} at full resolution) in {:.1} s; last: {}, {:.2} steps/ray",

@@ -6,16 +6,19 @@ use anyhow::{Result, bail};
 use clap::Args;
 
 use isomarch::checks;
-use isomarch::open::Input;
-use isomarch::output::FileFormat;
-use isomarch::view::ViewOptions;
+#[cfg(feature = "window")]
+use isomarch::{open::Input, output::FileFormat, view::ViewOptions};
 
 use super::args::{PlayArgs, SceneFlags};
-use super::finish;
-use super::report::{self, method_note};
+#[cfg(feature = "window")]
+use super::{
+    finish,
+    report::{self, method_note},
+};
 
 /// `isomarch view`.
 #[derive(Args)]
+#[cfg_attr(not(feature = "window"), allow(dead_code))]
 pub struct ViewArgs {
     /// Scene file (RON) or molecule file (.pdb, .cif, .gro, optionally .gz),
     /// or a trajectory's topology (those, or .psf).
@@ -68,6 +71,7 @@ pub struct ViewArgs {
 }
 
 /// What `view` will show, every value checked, before the window opens.
+#[cfg(feature = "window")]
 impl TryFrom<ViewArgs> for ViewOptions {
     type Error = anyhow::Error;
 
@@ -115,6 +119,12 @@ impl TryFrom<ViewArgs> for ViewOptions {
     }
 }
 
+#[cfg(not(feature = "window"))]
+pub fn run(_args: ViewArgs) -> Result<()> {
+    bail!("{}", isomarch::WITHOUT_WINDOW)
+}
+
+#[cfg(feature = "window")]
 pub fn run(args: ViewArgs) -> Result<()> {
     let options = ViewOptions::try_from(args)?;
     method_note(&options.scene, options.method);

@@ -154,10 +154,15 @@ fn create_instance(entry: &ash::Entry, validation: bool, present: Option<raw_win
         vk::ApplicationInfo::default().application_name(&app_name).application_version(1).engine_name(&app_name).api_version(vk::API_VERSION_1_2);
     let mut layers = Vec::new();
     let mut extensions = Vec::new();
+    #[cfg(feature = "window")]
     if let Some(display) = present {
         let needed =
             ash_window::enumerate_required_extensions(display).context("this display has no Vulkan surface extension (is it X11 or Wayland?)")?;
         extensions.extend_from_slice(needed);
+    }
+    #[cfg(not(feature = "window"))]
+    if present.is_some() {
+        anyhow::bail!("{}", crate::WITHOUT_WINDOW);
     }
     if validation {
         // SAFETY: plain enumeration.
@@ -346,14 +351,12 @@ impl Context {
     }
 }
 
-/// Where the pipeline cache of this device and driver lives:
-/// `$XDG_CACHE_HOME/isomarch` or `~/.cache/isomarch`; `None` without a home.
+/// Where the pipeline cache of this device and driver lives: beside the
+/// compiled kernels, `$XDG_CACHE_HOME/isomarch` or `~/.cache/isomarch`;
+/// `None` without a home.
 fn pipeline_cache_path(props: &vk::PhysicalDeviceProperties) -> Option<std::path::PathBuf> {
-    let base = std::env::var_os("XDG_CACHE_HOME")
-        .map(std::path::PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| std::path::PathBuf::from(h).join(".cache")))?;
     let uuid: String = props.pipeline_cache_uuid.iter().map(|b| format!("{b:02x}")).collect();
-    Some(base.join("isomarch").join(format!("pipelines-{:04x}-{:04x}-{uuid}.bin", props.vendor_id, props.device_id)))
+    Some(isomarch_shaders::user_cache_dir()?.join(format!("pipelines-{:04x}-{:04x}-{uuid}.bin", props.vendor_id, props.device_id)))
 }
 
 impl Drop for Context {

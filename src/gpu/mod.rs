@@ -4,6 +4,7 @@
 mod buffer;
 mod context;
 mod pipeline;
+#[cfg(feature = "window")]
 mod present;
 mod submit;
 mod transfer;
@@ -11,6 +12,7 @@ mod transfer;
 pub use buffer::{Buffer, Role};
 pub use context::{Context, ContextOptions, DeviceInfo, list_devices};
 pub use pipeline::ComputePipeline;
+#[cfg(feature = "window")]
 pub use present::{Presented, Presenter};
 pub use submit::{GpuError, Submitter};
 pub use transfer::{Fetch, TransferStats, Transfers, memory_barrier};

@@ -37,15 +37,14 @@ impl ComputePipeline {
     /// pairs: the driver removes the code paths they rule out.
     pub fn new(
         ctx: &Arc<Context>,
-        spirv: &[u8],
+        spirv: &[u32],
         bindings: &[Binding],
         push_constant_bytes: u32,
         specialization: &[(u32, u32)],
     ) -> Result<ComputePipeline> {
         let device = &ctx.device;
-        let code: Vec<u32> = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).context("reading SPIR-V")?;
-        let module_info = vk::ShaderModuleCreateInfo::default().code(&code);
-        // SAFETY: valid SPIR-V built by shaders/build.rs.
+        let module_info = vk::ShaderModuleCreateInfo::default().code(spirv);
+        // SAFETY: valid SPIR-V compiled by shaderc (isomarch-shaders).
         let module = unsafe { device.create_shader_module(&module_info, None) }.context("creating shader module")?;
 
         let types: Vec<vk::DescriptorType> = bindings.iter().map(descriptor_type).collect();

@@ -30,10 +30,7 @@ use index::{GridSpec, IndexStats, index_radii};
 // first-crossing bracket ([`brackets`]), the bracket's kernel walking the
 // camera's screen-space lists ([`tiles`]) and that walk without the
 // bracket (transparent camera rays), and the spatial index's build.
-use isomarch_shaders::{
-    BOUNDS as BOUNDS_SPV, BOUNDS_INDEXED as BOUNDS_INDEXED_SPV, INDEX as INDEX_SPV, MARCH as MARCH_SPV, MARCH_BRACKET as MARCH_BRACKET_SPV,
-    MARCH_INDEXED as MARCH_INDEXED_SPV, MARCH_TILES as MARCH_TILES_SPV, MARCH_TILES_CROSSINGS as MARCH_TILES_CROSSINGS_SPV,
-};
+use isomarch_shaders::Kernel;
 
 /// Which entry point a pipeline runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -624,7 +621,7 @@ impl Renderer {
         self.globals.write(0, &[globals(&self.scene, 2.0, self.scene.marching.quad, Some(&grid))])?;
         if self.index_pipeline.is_none() {
             let started = Instant::now();
-            let p = ComputePipeline::new(&self.ctx, INDEX_SPV, layout::BINDINGS, PUSH_CONSTANT_BYTES, &[])?;
+            let p = ComputePipeline::new(&self.ctx, Kernel::Index.spirv().map_err(anyhow::Error::msg)?, layout::BINDINGS, PUSH_CONSTANT_BYTES, &[])?;
             p.bind(&self.bound_buffers())?;
             self.warm_up((p.pipeline, p.layout, p.set))?;
             self.index_pipeline = Some(p);
@@ -790,15 +787,16 @@ impl Renderer {
         if !self.pipelines.contains_key(&key) {
             let started = Instant::now();
             let spec = specialization(&self.scene, method, &key, self.grid.is_some());
-            let spirv = match entry {
-                EntryPoint::March if tiles && brackets(&self.scene, method, options) => MARCH_TILES_SPV,
-                EntryPoint::March if tiles => MARCH_TILES_CROSSINGS_SPV,
-                EntryPoint::March if self.grid.is_some() && brackets(&self.scene, method, options) => MARCH_BRACKET_SPV,
-                EntryPoint::March if self.grid.is_some() => MARCH_INDEXED_SPV,
-                EntryPoint::March => MARCH_SPV,
-                EntryPoint::BoundsProbe if self.grid.is_some() => BOUNDS_INDEXED_SPV,
-                EntryPoint::BoundsProbe => BOUNDS_SPV,
+            let kernel = match entry {
+                EntryPoint::March if tiles && brackets(&self.scene, method, options) => Kernel::MarchTiles,
+                EntryPoint::March if tiles => Kernel::MarchTilesCrossings,
+                EntryPoint::March if self.grid.is_some() && brackets(&self.scene, method, options) => Kernel::MarchBracket,
+                EntryPoint::March if self.grid.is_some() => Kernel::MarchIndexed,
+                EntryPoint::March => Kernel::March,
+                EntryPoint::BoundsProbe if self.grid.is_some() => Kernel::BoundsIndexed,
+                EntryPoint::BoundsProbe => Kernel::Bounds,
             };
+            let spirv = kernel.spirv().map_err(anyhow::Error::msg)?;
             let p = ComputePipeline::new(&self.ctx, spirv, layout::BINDINGS, PUSH_CONSTANT_BYTES, &spec)?;
             p.bind(&self.buffers_for(tiles)?)?;
             self.warm_up((p.pipeline, p.layout, p.set))?;
