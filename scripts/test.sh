@@ -11,6 +11,13 @@ cd "$ISOMARCH_ROOT"
 # Cargo.toml's [lints] or where they are allowed). Clippy checks the
 # release profile, whose build-script outputs (shaderc's) the tests share.
 cargo fmt --all --check
+# The Python crate's pyo3 reads the interpreter's configuration from the
+# file that maturin writes (scripts/python-test.sh). Clippy given the same
+# file agrees with maturin's last run of pyo3's build script, so a second
+# run of this script compiles nothing (without it the two would each
+# rebuild pyo3 after the other).
+maturin_config=$(ls "$CARGO_TARGET_DIR"/maturin/pyo3-config-*.txt 2>/dev/null | head -n 1 || true)
+if [ -n "$maturin_config" ]; then export PYO3_CONFIG_FILE="$maturin_config"; fi
 cargo clippy --workspace --release --locked --all-targets -- -D warnings
 # One profile (release) for tests and runs: shaderc is built once.
 cargo test --release --locked -p isomarch-shaders
