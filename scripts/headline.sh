@@ -24,7 +24,7 @@ for row in "${rows[@]}"; do
     "$bin" bench "scenes/$scene.ron" --rays 131072 --methods segment,quadratic-taylor,quadratic \
         --repeat 5 --json "$out/$scene.json" >&2
 done
-echo "Measured $(date -u +%Y-%m-%d) at commit $(git rev-parse --short HEAD) on $(python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['device'])" "$out/fig10.json"):"
+echo "Measured $(date -u +%Y-%m-%d) at commit $(git rev-parse --short HEAD) on $(python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['device'])" "$out/fig10.json")."
 echo
 echo "| scene | quadratic Taylor: steps, time | paper | bottom-up quadratic: steps, time | paper |"
 echo "|---|---|---|---|---|"
