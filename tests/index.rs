@@ -539,7 +539,8 @@ fn a_molecules_any_hit_queries_end_where_a_ray_enters_an_atoms_reach() {
 /// (src/render/tiles.rs) find the f64 reference's first hits, for every
 /// conservative method they serve (all but the bisection baselines), on
 /// particles in one group and in three, and on two molecules; the lists'
-/// hits and depths are the grid's within the tolerance; transparent, every
+/// hits and depths are the grid's within the tolerance (on 6WG6 the
+/// reference is taken on every fourth ray, the grid on all); transparent, every
 /// crossing the reference finds (the particles and 1A8O).
 #[test]
 fn camera_rays_through_tile_lists_find_the_references_hits() {
@@ -556,9 +557,19 @@ fn camera_rays_through_tile_lists_find_the_references_hits() {
         let tol = tolerance(&s);
         let mut renderer = Renderer::new(&ctx, &s).unwrap();
         let (rays, pixels) = isomarch::render::rays::camera_rays(&s.camera, w, h, &s.bounds);
-        let reference = reference_hits(&s, &rays, false);
+        // 6WG6's f64 reference costs about 13 ms a ray on 2 cores (most of
+        // this test's time): it is taken on every fourth ray, 16 of each
+        // 8x8 tile's 64, while the lists are held against the grid on
+        // every ray.
+        let stride = if what == "6WG6" { 4 } else { 1 };
+        let sampled: Vec<GpuRay> = rays.iter().step_by(stride).copied().collect();
+        let mut reference = vec![None; rays.len()];
+        for (k, hit) in reference_hits(&s, &sampled, false).into_iter().enumerate() {
+            reference[k * stride] = hit;
+        }
+        let referenced = |i: usize| i % stride == 0;
         let hits = reference.iter().filter(|h| h.is_some()).count();
-        assert!(5 * hits >= pixels.len(), "{what}: only {hits} hits");
+        assert!(5 * hits * stride >= pixels.len(), "{what}: only {hits} hits among {} rays", sampled.len());
         let opaque = MarchOptions { shade: false, ..MarchOptions::for_scene(&s) };
         let served: Vec<Method> = Method::CONSERVATIVE.iter().copied().filter(|&m| renderer.tiles_apply(m, &opaque)).collect();
         assert!(served.len() == Method::CONSERVATIVE.len() - 2 && served.iter().all(|m| !m.bisects()), "{what}: the lists serve {served:?}");
@@ -571,8 +582,9 @@ fn camera_rays_through_tile_lists_find_the_references_hits() {
             if method != Method::Sphere {
                 assert_eq!(finished.len(), rays.len(), "{what} {method}: rays ran out of steps");
             }
-            let results: Vec<GpuResult> = finished.iter().map(|&i| tiled[i]).collect();
-            let expected: Vec<Option<f64>> = finished.iter().map(|&i| reference[i]).collect();
+            let checked: Vec<usize> = finished.iter().copied().filter(|&i| referenced(i)).collect();
+            let results: Vec<GpuResult> = checked.iter().map(|&i| tiled[i]).collect();
+            let expected: Vec<Option<f64>> = checked.iter().map(|&i| reference[i]).collect();
             let acc = accuracy(&results, &expected, tol, tol);
             assert!(acc.misses + acc.false_hits == 0, "{what} {method}: {} missed, {} false through the tile lists", acc.misses, acc.false_hits);
             let hit = |r: &GpuResult| r.counts[3] & isomarch::layout::FLAG_HIT != 0;
