@@ -687,19 +687,17 @@ fn scenes_of_17_to_256_groups_march_indexed_against_the_reference() {
     }
 }
 
-/// The camera's tile lists bound a walk by the most entries a tile holds
-/// over all its groups (`crowd`), not by one group's longest list: twenty
-/// groups of 100 coinciding blobs each (one pile per group, the piles
-/// 0.3 apart), so that every tile that sees them lists 2,000 entries and
-/// a fold near the surface reads them all. `bench --camera-rays` on every
-/// pixel's ray marches the grid against the f64 reference (no miss, no
-/// false hit); `render` through the tile lists (`--stats` says so) hits
-/// and misses where the grid does (`ISOMARCH_TILES=off`), each depth
-/// within twice the refinement tolerance. (It found the tile walk adding a
-/// grid everywhere list's primitives, read from the tile lists' buffers:
-/// every hit up to 0.2 early.)
+/// Tile lists of many overlapping groups: twenty groups of 100 coinciding
+/// blobs each (one pile per group, the piles 0.3 apart), every tile that
+/// sees them listing 2,000 entries. `bench --camera-rays` on every pixel's
+/// ray marches the grid against the f64 reference (no miss, no false hit);
+/// `render` through the tile lists (`--stats` says so) hits and misses
+/// where the grid does (`ISOMARCH_TILES=off`), each depth within twice the
+/// refinement tolerance. (It found the tile walk adding a grid everywhere
+/// list's primitives, read from the tile lists' buffers: every hit up to
+/// 0.2 early.)
 #[test]
-fn tile_lists_of_many_groups_fit_every_tiles_entries_in_the_loop_budget() {
+fn tile_lists_of_many_overlapping_groups_hit_where_the_grid_does() {
     let dir = scratch("index-crowd");
     let piles: Vec<Vec<[f64; 4]>> = (0..20)
         .map(|g| {
@@ -761,4 +759,52 @@ fn a_renderer_drops_its_tile_lists_when_the_camera_turns_orthographic() {
     let differing = after.pixels().zip(alone.pixels()).filter(|(p, q)| p != q).count();
     assert!(differing == 0, "after a perspective frame, the orthographic frame differs from a fresh renderer's in {differing} pixels");
     assert_no_validation(&ctx);
+}
+
+/// The tile lists' loop budget covers every entry a tile lists, summed
+/// over its groups (`crowd`), not one group's longest list: twenty groups
+/// of 500 coinciding blobs (one pile per group, the piles 0.3 apart), so
+/// that every tile seeing them lists 10,000 entries and a fold near the
+/// surface reads them all. The grid cannot march this scene (a cell would
+/// hold 10,000 entries, beyond a dispatch's loop budget: refused in one
+/// line), the tile lists can, one turn per slice: `render` through them
+/// (`--stats` says so) hits where the f64 reference does on every pixel's
+/// ray, within twice the refinement tolerance, and misses where it misses.
+#[test]
+fn tile_lists_budget_every_groups_entries_of_a_tile() {
+    let dir = scratch("index-crowd-budget");
+    let piles: Vec<Vec<[f64; 4]>> = (0..20)
+        .map(|g| {
+            let a = std::f64::consts::TAU * f64::from(g) / 20.0;
+            vec![[0.3 * a.cos(), 0.3 * a.sin(), 0.0, 1.0]; 500]
+        })
+        .collect();
+    let path = dir.join("piles.ron");
+    std::fs::write(&path, groups_ron(&piles, [0.0, 0.0, 5.0], 16)).unwrap();
+    let (exr, stats) = (dir.join("piles.exr"), dir.join("piles.json"));
+    isomarch(["render", path.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--aov", "depth", "--stats", stats.to_str().unwrap()]).ok();
+    let stats = json(&stats);
+    assert_eq!(stats["acceleration"].as_str(), Some("tiles"), "{stats}");
+    assert_eq!(stats["tiles"]["longest_list"].as_u64(), Some(500), "{}", stats["tiles"]);
+    let depth = exr_channel(&exr::prelude::read_all_flat_layers_from_file(&exr).unwrap(), "Z");
+    let s = Scene::load(&path).unwrap().recentred_on_camera();
+    let (rays, pixels) = isomarch::render::rays::camera_rays(&s.camera, 16, 16, &s.bounds);
+    let reference = reference_hits(&s, &rays, false);
+    let tol = 2.0 * s.refine_tolerance();
+    let mut hits = 0;
+    for (r, p) in reference.iter().zip(&pixels) {
+        let Some(p) = p else { continue };
+        let got = depth[*p as usize];
+        match r {
+            Some(t) => {
+                assert!((f64::from(got) - t).abs() <= tol, "pixel {p}: depth {got} through the tile lists, the reference's {t}");
+                hits += 1;
+            }
+            None => assert!(!got.is_finite(), "pixel {p}: depth {got} through the tile lists, where the reference misses"),
+        }
+    }
+    assert!(hits >= 64, "only {hits} of 256 pixels hit the piles");
+    let err =
+        isomarch(["render", path.to_str().unwrap(), "-o", dir.join("grid.png").to_str().unwrap()]).env("ISOMARCH_TILES", "off").fails_in_one_line();
+    assert!(err.contains("overlap in one place"), "{err}");
 }
