@@ -299,3 +299,49 @@ fn an_outline_is_drawn_its_width_inside_the_surfaces_edge() {
     let err = isomarch(["render", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "--outline-jump", "0.1"]).fails_in_one_line();
     assert!(err.contains("--outline-jump and") || err.contains("which was not given"), "{err}");
 }
+
+/// `--transparent-background` at one sample (the pixel's centre): alpha is
+/// the coverage of one sample, 0 or 255 and nothing between, 255 exactly
+/// where the centre lies left of the edge (from the geometry); a covered
+/// pixel's colour is the opaque render's, byte for byte, an uncovered one
+/// (0, 0, 0, 0). The EXR's A is 0 or 1 and its colour premultiplied.
+#[test]
+fn a_transparent_background_at_one_sample_is_all_or_nothing() {
+    let dir = scratch("aa-alpha-one");
+    let (w, h) = (40u32, 8u32);
+    let path = dir.join("edge.ron");
+    std::fs::write(&path, scene_text("quadratic-taylor")).unwrap();
+    let edge = edge_in_pixels(&path);
+    assert!((edge.fract() - 0.5).abs() > 0.01, "the edge at {edge} pixels passes through a pixel's centre");
+    let (png, exr, opaque) = (dir.join("alpha.png"), dir.join("alpha.exr"), dir.join("opaque.png"));
+    for out in [&png, &exr] {
+        run_ok(&["render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--transparent-background"]);
+    }
+    run_ok(&["render", path.to_str().unwrap(), "-o", opaque.to_str().unwrap()]);
+    let (img, opaque) = (image::open(&png).unwrap(), image::open(&opaque).unwrap().to_rgb8());
+    assert_eq!(img.color(), image::ColorType::Rgba8, "an RGBA PNG");
+    let img = img.to_rgba8();
+    let layers = exr::prelude::read_all_flat_layers_from_file(&exr).unwrap();
+    let (a, red) = (exr_channel(&layers, "A"), exr_channel(&layers, "R"));
+    let mut covered = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let p = img.get_pixel(x, y).0;
+            let hit = f64::from(x) + 0.5 < edge;
+            if hit {
+                assert_eq!(
+                    p,
+                    [opaque.get_pixel(x, y)[0], opaque.get_pixel(x, y)[1], opaque.get_pixel(x, y)[2], 255],
+                    "pixel ({x}, {y}), the edge at {edge:.4}"
+                );
+            } else {
+                assert_eq!(p, [0, 0, 0, 0], "pixel ({x}, {y}), the edge at {edge:.4}");
+            }
+            let i = (y * w + x) as usize;
+            let want = if hit { 1.0 } else { 0.0 };
+            assert!(a[i] == want && (red[i] - 0.8 * want).abs() <= 1e-5, "EXR pixel ({x}, {y}): A {} R {}, the edge at {edge:.4}", a[i], red[i]);
+            covered += usize::from(hit);
+        }
+    }
+    assert!(covered >= 8 * 20 && covered < (w * h) as usize, "{covered} pixels covered");
+}

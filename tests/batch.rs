@@ -338,3 +338,43 @@ fn tradeoff_sweeps_the_settings_it_is_given() {
     // A larger minimum step takes fewer steps.
     assert!(num("0.2", "64", "steps_per_ray") < num("0.05", "64", "steps_per_ray"), "{text}");
 }
+
+/// The look's flags and `--legend` under `--frames`: frame 1 of a batch of
+/// 1A8O turning (`--turntable 4`, one frame a second) with a B-factor
+/// legend, depth cueing and a magenta outline is, byte for byte, `render
+/// --time 1` with the same flags: 26 legend rows under the image and an
+/// outline; and so is a batch frame with a transparent background (an
+/// RGBA PNG, its corners transparent).
+#[test]
+fn batch_frames_keep_the_look_and_the_legend() {
+    let dir = scratch("batch-look");
+    let pdb = repo_root().join("tests/data/molecules/1A8O.pdb");
+    let common = ["--turntable", "4", "--size", "48x48", "--color", "bfactor"];
+    let looks: [&[&str]; 2] = [
+        &["--legend", "--depth-cue", "0.2:0.9", "--outline", "2", "--outline-jump", "0.05", "--outline-color", "#ff00ff"],
+        &["--transparent-background", "--outline", "--depth-cue"],
+    ];
+    let mut frames = Vec::new();
+    for (k, flags) in looks.iter().enumerate() {
+        let pattern = dir.join(format!("look{k}_#.png"));
+        isomarch(["render", pdb.to_str().unwrap(), "--frames", "0..2", "--fps", "1", "-o", pattern.to_str().unwrap()])
+            .args(["--csv", dir.join(format!("look{k}.csv")).to_str().unwrap()])
+            .args(common)
+            .args(*flags)
+            .env_remove("SLURM_ARRAY_TASK_ID")
+            .env_remove("JOB_COMPLETION_INDEX")
+            .ok();
+        let single = dir.join(format!("single{k}.png"));
+        isomarch(["render", pdb.to_str().unwrap(), "--time", "1", "-o", single.to_str().unwrap()]).args(common).args(*flags).ok();
+        let batch = std::fs::read(dir.join(format!("look{k}_1.png"))).unwrap();
+        assert!(batch == std::fs::read(&single).unwrap(), "batch frame 1 with {flags:?} differs from render --time 1 with them");
+        frames.push(image::load_from_memory(&batch).unwrap());
+    }
+    let legend = frames[0].to_rgb8();
+    assert_eq!(legend.dimensions(), (48, 48 + 26), "the legend's rows under the frame");
+    let outline = legend.pixels().take(48 * 48).filter(|p| p.0 == [255, 0, 255]).count();
+    assert!(outline > 40, "only {outline} outline pixels");
+    assert_eq!(frames[1].color(), image::ColorType::Rgba8, "a transparent background's frame is RGBA");
+    let clear = frames[1].to_rgba8();
+    assert!([(0, 0), (47, 0), (0, 47), (47, 47)].iter().all(|&(x, y)| clear.get_pixel(x, y)[3] == 0), "the corners are not transparent");
+}

@@ -634,3 +634,189 @@ fn camera_rays_through_tile_lists_find_the_references_hits() {
     }
     assert_no_validation(&ctx);
 }
+
+/// A scene file of compact blobs `(x, y, z, support radius)`, one group per
+/// list (combined by max), seen from `eye` towards the origin at `size` x
+/// `size`.
+fn groups_ron(groups: &[Vec<[f64; 4]>], eye: [f64; 3], size: u32) -> String {
+    let mut s = format!(
+        "Scene(camera: (eye: ({:?}, {:?}, {:?}), target: (0.0, 0.0, 0.0), fov_y: 40.0, resolution: ({size}, {size})), \
+         lights: [(direction: (0.4, 0.8, 0.45))], iso: 0.5, marching: (method: \"quadratic-taylor\", min_step: 0.001), groups: [\n",
+        eye[0], eye[1], eye[2]
+    );
+    for g in groups {
+        s += "    (primitives: [";
+        for b in g {
+            s += &format!("Point(center: ({:?}, {:?}, {:?}), kernel: Compact(radius: {:?})), ", b[0], b[1], b[2], b[3]);
+        }
+        s += "]),\n";
+    }
+    s + "])\n"
+}
+
+/// `bench --json`'s rows against the f64 reference: no miss and no false
+/// hit for any method, on a sample where the reference hits at least a
+/// quarter of the rays; the report's spatial index.
+fn bench_matches_the_reference(scene: &std::path::Path, extra: &[&str], what: &str) -> serde_json::Value {
+    let json_path = scene.with_extension("json");
+    isomarch(["bench", scene.to_str().unwrap(), "--methods", "quadratic-taylor,segment", "--json", json_path.to_str().unwrap()]).args(extra).ok();
+    let report = json(&json_path);
+    assert!(report["reference_hit_rate"].as_f64().unwrap() >= 0.25, "{what}: too few reference hits to test: {}", report["reference_hit_rate"]);
+    for row in report["methods"].as_array().unwrap() {
+        assert_eq!((row["miss_rate"].as_f64(), row["false_hit_rate"].as_f64()), (Some(0.0), Some(0.0)), "{what}: {}", row);
+    }
+    report["index"].clone()
+}
+
+/// Scenes of 17 to 256 groups (more than the 16 the index took before
+/// issue 40; docs/limits.md) march with the spatial index, and `bench`'s
+/// rows match the f64 reference: no miss, no false hit, at 17 groups and
+/// at 256, 768 blobs at the density of the other index tests.
+#[test]
+fn scenes_of_17_to_256_groups_march_indexed_against_the_reference() {
+    let dir = scratch("index-groups");
+    for groups in [17, 256] {
+        let s = particles(768, groups, 40 + groups as u64);
+        let blobs: Vec<Vec<[f64; 4]>> = s
+            .groups
+            .iter()
+            .map(|g| {
+                g.iter()
+                    .map(|p| match *p {
+                        isomarch::scene::Primitive::Point { center, kernel: isomarch::scene::Kernel::Compact { radius, .. } } => {
+                            [center.x, center.y, center.z, radius]
+                        }
+                        other => panic!("{other:?}"),
+                    })
+                    .collect()
+            })
+            .collect();
+        assert!(blobs.iter().all(|g| !g.is_empty()));
+        let path = dir.join(format!("groups{groups}.ron"));
+        std::fs::write(&path, groups_ron(&blobs, [0.0, 0.0, 30.0], 64)).unwrap();
+        let index = bench_matches_the_reference(&path, &["--rays", "1024"], &format!("{groups} groups"));
+        assert!(index["entries"].as_u64().is_some_and(|e| e >= 768), "{groups} groups march without the index: {index}");
+    }
+}
+
+/// Tile lists of many overlapping groups: twenty groups of 100 coinciding
+/// blobs each (one pile per group, the piles 0.3 apart), every tile that
+/// sees them listing 2,000 entries. `bench --camera-rays` on every pixel's
+/// ray marches the grid against the f64 reference (no miss, no false hit);
+/// `render` through the tile lists (`--stats` says so) hits and misses
+/// where the grid does (`ISOMARCH_TILES=off`), each depth within twice the
+/// refinement tolerance. (It found the tile walk adding a grid everywhere
+/// list's primitives, read from the tile lists' buffers: every hit up to
+/// 0.2 early.)
+#[test]
+fn tile_lists_of_many_overlapping_groups_hit_where_the_grid_does() {
+    let dir = scratch("index-crowd");
+    let piles: Vec<Vec<[f64; 4]>> = (0..20)
+        .map(|g| {
+            let a = std::f64::consts::TAU * f64::from(g) / 20.0;
+            vec![[0.3 * a.cos(), 0.3 * a.sin(), 0.0, 1.0]; 100]
+        })
+        .collect();
+    let path = dir.join("piles.ron");
+    std::fs::write(&path, groups_ron(&piles, [0.0, 0.0, 5.0], 32)).unwrap();
+    let index = bench_matches_the_reference(&path, &["--camera-rays", "--rays", "1024"], "20 piles, camera rays through the grid");
+    assert!(index["entries"].as_u64().is_some(), "20 groups march without the index: {index}");
+    let render = |name: &str, tiles: &str| -> (Vec<f32>, serde_json::Value) {
+        let (exr, stats) = (dir.join(format!("{name}.exr")), dir.join(format!("{name}.json")));
+        isomarch(["render", path.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--aov", "depth", "--stats", stats.to_str().unwrap()])
+            .env("ISOMARCH_TILES", tiles)
+            .ok();
+        (exr_channel(&exr::prelude::read_all_flat_layers_from_file(&exr).unwrap(), "Z"), json(&stats))
+    };
+    let ((tiled, tiled_stats), (grid, grid_stats)) = (render("tiles", "on"), render("grid", "off"));
+    assert_eq!((tiled_stats["acceleration"].as_str(), grid_stats["acceleration"].as_str()), (Some("tiles"), Some("grid")));
+    assert!(tiled_stats["tiles"]["longest_list"].as_u64().is_some_and(|n| n >= 100), "{}", tiled_stats["tiles"]);
+    let tol = 2.0 * isomarch::scene::Scene::load(&path).unwrap().refine_tolerance();
+    let mut hits = 0;
+    for (i, (a, b)) in tiled.iter().zip(&grid).enumerate() {
+        assert_eq!(a.is_finite(), b.is_finite(), "pixel {i}: depth {a} through the tile lists, {b} through the grid");
+        if a.is_finite() {
+            assert!(f64::from((a - b).abs()) <= tol, "pixel {i}: depth {a} through the tile lists, {b} through the grid");
+            hits += 1;
+        }
+    }
+    assert!(hits >= 256, "only {hits} of 1024 pixels hit the piles");
+}
+
+/// A renderer whose tile lists were built for a perspective frame drops
+/// them when the camera turns orthographic (whose parallel rays walk the
+/// grid: the lists bin rays through the eye): the orthographic frame is,
+/// byte for byte, the one a fresh renderer makes of it.
+#[test]
+fn a_renderer_drops_its_tile_lists_when_the_camera_turns_orthographic() {
+    use isomarch::render::offscreen::{Effects, march_image};
+    let ctx = gpu();
+    let s = particles(400, 1, 11);
+    let mut ortho = s.clone();
+    ortho.camera.projection = isomarch::scene::Projection::Orthographic { height: 16.0 };
+    let (s, ortho) = (s.recentred_on_camera(), ortho.recentred_on_camera());
+    let options = MarchOptions::for_scene(&s);
+    let frame = |r: &mut Renderer, scene: &Scene| {
+        march_image(r, Method::QuadraticTaylor, options, scene, (48, 48), 1, Effects::default()).unwrap().0.shaded()
+    };
+    let timeout = std::time::Duration::from_secs(300);
+    let mut renderer = Renderer::for_camera(&ctx, &s, timeout).unwrap();
+    let perspective = frame(&mut renderer, &s);
+    assert!(renderer.tile_stats().is_some(), "the perspective frame took no tile lists");
+    let after = frame(&mut renderer, &ortho);
+    let alone = frame(&mut Renderer::for_camera(&ctx, &ortho, timeout).unwrap(), &ortho);
+    let background = perspective.get_pixel(0, 0).0;
+    let hits = alone.pixels().filter(|p| p.0 != background).count();
+    assert!(hits > 500 && alone != perspective, "the orthographic frame shows {hits} hits");
+    let differing = after.pixels().zip(alone.pixels()).filter(|(p, q)| p != q).count();
+    assert!(differing == 0, "after a perspective frame, the orthographic frame differs from a fresh renderer's in {differing} pixels");
+    assert_no_validation(&ctx);
+}
+
+/// The tile lists' loop budget covers every entry a tile lists, summed
+/// over its groups (`crowd`), not one group's longest list: twenty groups
+/// of 500 coinciding blobs (one pile per group, the piles 0.3 apart), so
+/// that every tile seeing them lists 10,000 entries and a fold near the
+/// surface reads them all. The grid cannot march this scene (a cell would
+/// hold 10,000 entries, beyond a dispatch's loop budget: refused in one
+/// line), the tile lists can, one turn per slice: `render` through them
+/// (`--stats` says so) hits where the f64 reference does on every pixel's
+/// ray, within twice the refinement tolerance, and misses where it misses.
+#[test]
+fn tile_lists_budget_every_groups_entries_of_a_tile() {
+    let dir = scratch("index-crowd-budget");
+    let piles: Vec<Vec<[f64; 4]>> = (0..20)
+        .map(|g| {
+            let a = std::f64::consts::TAU * f64::from(g) / 20.0;
+            vec![[0.3 * a.cos(), 0.3 * a.sin(), 0.0, 1.0]; 500]
+        })
+        .collect();
+    let path = dir.join("piles.ron");
+    std::fs::write(&path, groups_ron(&piles, [0.0, 0.0, 5.0], 16)).unwrap();
+    let (exr, stats) = (dir.join("piles.exr"), dir.join("piles.json"));
+    isomarch(["render", path.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--aov", "depth", "--stats", stats.to_str().unwrap()]).ok();
+    let stats = json(&stats);
+    assert_eq!(stats["acceleration"].as_str(), Some("tiles"), "{stats}");
+    assert_eq!(stats["tiles"]["longest_list"].as_u64(), Some(500), "{}", stats["tiles"]);
+    let depth = exr_channel(&exr::prelude::read_all_flat_layers_from_file(&exr).unwrap(), "Z");
+    let s = Scene::load(&path).unwrap().recentred_on_camera();
+    let (rays, pixels) = isomarch::render::rays::camera_rays(&s.camera, 16, 16, &s.bounds);
+    let reference = reference_hits(&s, &rays, false);
+    let tol = 2.0 * s.refine_tolerance();
+    let mut hits = 0;
+    for (r, p) in reference.iter().zip(&pixels) {
+        let Some(p) = p else { continue };
+        let got = depth[*p as usize];
+        match r {
+            Some(t) => {
+                assert!((f64::from(got) - t).abs() <= tol, "pixel {p}: depth {got} through the tile lists, the reference's {t}");
+                hits += 1;
+            }
+            None => assert!(!got.is_finite(), "pixel {p}: depth {got} through the tile lists, where the reference misses"),
+        }
+    }
+    assert!(hits >= 64, "only {hits} of 256 pixels hit the piles");
+    let err =
+        isomarch(["render", path.to_str().unwrap(), "-o", dir.join("grid.png").to_str().unwrap()]).env("ISOMARCH_TILES", "off").fails_in_one_line();
+    assert!(err.contains("overlap in one place"), "{err}");
+}

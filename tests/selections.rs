@@ -268,3 +268,162 @@ fn a_surface_per_chain_meets_its_neighbour_with_a_seam() {
     let line = isomarch(["scene", ligand.to_str().unwrap(), "-o", dir.join("x.ron").to_str().unwrap(), "--apart", "resname XYZ"]).fails_in_one_line();
     assert!(line.contains("--apart 'resname XYZ' picks none of the atoms drawn"), "{line}");
 }
+
+/// A PDB HETATM record with the residue name in columns 18-21 (three
+/// letters and a blank, or CHARMM's four) and the chain in column 22.
+fn record4(serial: usize, element: &str, resname: &str, chain: &str, resid: i64, [x, y, z]: [f64; 3]) -> String {
+    format!(
+        "HETATM{serial:>5} {:<4} {resname:<4}{chain}{resid:>4}    {x:>8.3}{y:>8.3}{z:>8.3}  1.00  0.00          {element:>2}\n",
+        format!(" {element}")
+    )
+}
+
+/// The centres of each group's primitives of a scene file.
+fn group_centres(ron: &Path) -> Vec<Vec<[f64; 3]>> {
+    let scene = isomarch::scene::Scene::load(ron).unwrap();
+    scene
+        .groups
+        .iter()
+        .map(|g| {
+            g.iter()
+                .map(|p| match p {
+                    isomarch::scene::Primitive::Point { center, .. } => center.to_array(),
+                    other => panic!("not an atom: {other:?}"),
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// `--legend` draws the key of a colouring by value under a PNG with a
+/// background: with an EXR `-o`, with `--transparent-background` and with
+/// a colouring that is not by value it is refused (exit status 1, one
+/// error line after the molecule's summary) before any image is marched,
+/// a batch of frames as a single frame, and no image is written.
+#[test]
+fn a_legend_is_refused_where_it_cannot_be_drawn() {
+    let dir = scratch("sel-legend-refused");
+    let pdb = repo_root().join("tests/data/molecules/1A8O.pdb");
+    let cases: [(&[&str], &str, &str); 6] = [
+        (&["--color", "bfactor"], "x.exr", "--legend draws the colour bar on a PNG image; -o"),
+        (&["--color", "bfactor", "--transparent-background"], "x.png", "--legend and --transparent-background cannot be drawn together"),
+        (&[], "x.png", "--legend draws the key of a colouring by value"),
+        (&["--color", "restype"], "x.png", "--legend draws the key of a colouring by value"),
+        (&["--color", "bfactor", "--frames", "0..2"], "f_#.exr", "--legend draws the colour bar on a PNG image; -o"),
+        (&["--color", "bfactor", "--frames", "0..2", "--transparent-background"], "f_#.png", "--legend and --transparent-background"),
+    ];
+    for (flags, out, says) in cases {
+        let run =
+            isomarch(["render", pdb.to_str().unwrap(), "--legend", "--size", "16x16", "-o", dir.join(out).to_str().unwrap()]).args(flags).output();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+        assert_eq!(run.status.code(), Some(1), "{flags:?} -o {out}: not refused:\n{stderr}");
+        assert!(errors.len() == 1 && errors[0].contains(says), "{flags:?} -o {out}: {stderr:?} lacks one error line with {says:?}");
+        assert!(stderr.lines().count() <= 2, "{flags:?} -o {out}: more than the summary and the error:\n{stderr}");
+    }
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(left.is_empty(), "a refused --legend wrote {left:?}");
+}
+
+/// `--color restype` (VMD's residue classes: basic blue, acidic red, polar
+/// green, nonpolar white) and `--color resname` (Jmol's shapely colours)
+/// end to end, one atom per residue: the colour of each residue the table
+/// knows, and where it does not (HEM for both, MSE for shapely, a
+/// nucleotide for restype), the atom's element colour (`--color element`'s).
+#[test]
+fn residue_colourings_take_their_tables_and_fall_back_on_element_colours() {
+    let dir = scratch("sel-residues");
+    let pdb = dir.join("residues.pdb");
+    let residues = [("LYS", "C"), ("ASP", "C"), ("SER", "C"), ("GLY", "C"), ("MSE", "SE"), ("HEM", "FE"), ("DA", "C")];
+    let text: String = residues.iter().enumerate().map(|(i, &(r, e))| record4(i + 1, e, r, "A", i as i64 + 1, [20.0 * i as f64, 0.0, 0.0])).collect();
+    std::fs::write(&pdb, text).unwrap();
+    let element = scene_colors(&pdb, &["--color", "element"]);
+    let restype = scene_colors(&pdb, &["--color", "restype"]);
+    let resname = scene_colors(&pdb, &["--color", "resname"]);
+    let (white, green, red, blue) = (linear([255; 3]), linear([0, 160, 0]), linear([220, 0, 0]), linear([0, 0, 220]));
+    assert_eq!(restype, [blue, red, green, white, white, element[5], element[6]], "restype: LYS ASP SER GLY MSE HEM DA");
+    let shapely = [[0x47, 0x47, 0xB8], [0xA0, 0x00, 0x42], [0xFF, 0x70, 0x42], [0xFF, 0xFF, 0xFF]].map(linear);
+    assert_eq!(
+        resname,
+        [shapely[0], shapely[1], shapely[2], shapely[3], element[4], element[5], linear([0xA0, 0xA0, 0xFF])],
+        "resname: LYS ASP SER GLY MSE HEM DA"
+    );
+    // The fallbacks are the elements' colours (Jmol's Se, Fe and C), none a
+    // residue's.
+    assert_eq!([element[4], element[5], element[6]], [[0xFF, 0xA1, 0x00], [0xE0, 0x66, 0x33], [0x90, 0x90, 0x90]].map(linear));
+}
+
+/// PDB residue names of four characters (CHARMM's TIP3, POPC) are read
+/// through column 21, and the chain from column 22 after them: TIP3 is
+/// water (left out by default), `resname POPC` and `resname TIP3` pick
+/// their atoms, `chain W` the water, and `resname POP` none.
+#[test]
+fn four_character_residue_names_are_read_through_column_21() {
+    let dir = scratch("sel-four");
+    let pdb = dir.join("membrane.pdb");
+    let atoms = [("P", "POPC", "A", 1), ("C", "POPC", "A", 1), ("O", "TIP3", "W", 2), ("C", "LYS", "A", 3)];
+    let text: String = atoms.iter().enumerate().map(|(i, &(e, r, c, n))| record4(i + 1, e, r, c, n, [20.0 * i as f64, 0.0, 0.0])).collect();
+    assert!(text.contains(" POPCA   1 ") && text.contains(" TIP3W   2 "), "{text}");
+    std::fs::write(&pdb, text).unwrap();
+    let drawn = |flags: &[&str]| -> (usize, String) {
+        let ron = dir.join("m.ron");
+        let out = isomarch(["scene", pdb.to_str().unwrap(), "-o", ron.to_str().unwrap()]).args(flags).ok();
+        (isomarch::scene::Scene::load(&ron).unwrap().primitive_count(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (n, stderr) = drawn(&[]);
+    assert!(n == 3 && stderr.contains("3 atoms (1 water and ion atoms left out"), "TIP3 is not water: {n} atoms drawn, {stderr}");
+    for (select, count) in [("resname POPC", 2), ("resname TIP3", 1), ("chain W", 1), ("chain A and not resname POPC", 1)] {
+        assert_eq!(drawn(&["--select", select]).0, count, "--select '{select}'");
+    }
+    let err = isomarch(["scene", pdb.to_str().unwrap(), "-o", dir.join("x.ron").to_str().unwrap(), "--select", "resname POP"]).fails_in_one_line();
+    assert!(err.contains("the selection 'resname POP' picks none of its 4 atoms"), "{err}");
+}
+
+/// `--apart` given twice makes two surfaces of their own, in the order
+/// given, after the rest: three groups, the HEM atom alone in the second
+/// and the LIG atom in the third. An `--apart` whose atoms an earlier one
+/// took is refused in one line.
+#[test]
+fn apart_given_twice_makes_two_surfaces() {
+    let dir = scratch("sel-apart-twice");
+    let pdb = dir.join("ligands.pdb");
+    let atoms = [("C", "ALA", 1, 0.0), ("C", "ALA", 2, 1.5), ("C", "ALA", 3, 3.0), ("FE", "HEM", 4, 30.0), ("C", "LIG", 5, 60.0)];
+    let text: String = atoms.iter().enumerate().map(|(i, &(e, r, n, x))| record4(i + 1, e, r, "A", n, [x, 0.0, 0.0])).collect();
+    std::fs::write(&pdb, text).unwrap();
+    let ron = dir.join("apart.ron");
+    isomarch(["scene", pdb.to_str().unwrap(), "-o", ron.to_str().unwrap(), "--apart", "resname LIG", "--apart", "resname HEM"]).ok();
+    let at = |x: f64| [x, 0.0, 0.0];
+    assert_eq!(group_centres(&ron), vec![vec![at(0.0), at(1.5), at(3.0)], vec![at(60.0)], vec![at(30.0)]], "the rest, then LIG, then HEM");
+    let err = isomarch(["scene", pdb.to_str().unwrap(), "-o", dir.join("x.ron").to_str().unwrap()])
+        .args(["--apart", "resname HEM or resname LIG", "--apart", "resname LIG"])
+        .fails_in_one_line();
+    assert!(err.contains("--apart 'resname LIG' picks none of the atoms drawn (or an earlier --apart took them all)"), "{err}");
+}
+
+/// A trajectory's selection is made on its first frame and kept, by atom,
+/// for every frame: in a PDB of two models, `within 5 of resname LIG`
+/// picks the ALA atom 3 Å from the ligand in model 1, not the GLY atom 50
+/// Å away; in model 2 they have swapped places, and frame 1's scene still
+/// draws the ALA atom (now 50 Å away) and not the GLY atom (now 3 Å).
+#[test]
+fn a_trajectorys_selection_is_made_on_its_first_frame_and_kept_by_atom() {
+    let dir = scratch("sel-trajectory");
+    let pdb = dir.join("models.pdb");
+    let model = |k: usize, ala: f64, gly: f64| -> String {
+        format!(
+            "MODEL     {k:>4}\n{}{}{}ENDMDL\n",
+            record4(1, "C", "LIG", "A", 1, [0.0, 0.0, 0.0]),
+            record4(2, "C", "ALA", "A", 2, [ala, 0.0, 0.0]),
+            record4(3, "C", "GLY", "A", 3, [gly, 0.0, 0.0])
+        )
+    };
+    std::fs::write(&pdb, model(1, 3.0, 50.0) + &model(2, 50.0, 3.0)).unwrap();
+    let frame = |k: &str| -> Vec<Vec<[f64; 3]>> {
+        let ron = dir.join(format!("frame{k}.ron"));
+        isomarch(["scene", pdb.to_str().unwrap(), "-o", ron.to_str().unwrap(), "--frame", k, "--select", "within 5 of resname LIG"]).ok();
+        group_centres(&ron)
+    };
+    let at = |x: f64| [x, 0.0, 0.0];
+    assert_eq!(frame("0"), vec![vec![at(0.0), at(3.0)]], "frame 0: the ligand and ALA");
+    assert_eq!(frame("1"), vec![vec![at(0.0), at(50.0)]], "frame 1: the ligand and ALA where ALA has moved, not GLY");
+}

@@ -427,3 +427,268 @@ fn a_far_clip_cuts_a_sphere_from_behind() {
     }
     assert!(hits > 500 && cut > 400, "{hits} pixels kept before the far plane, {cut} cut away behind it");
 }
+
+/// `--outline-jump F` in closed form: an orthographic view (height 4,
+/// 64x64) of a sphere of radius ρ = 2·sqrt(1 − cbrt(0.5)) about the
+/// origin in front of a plane slab whose front face lies at z = −3.548,
+/// the eye at z = 10, the bounds' view depths 7 to 16 (a depth range of 9).
+/// Every pixel hits the sphere or the plane. With `--outline 6
+/// --outline-jump 0.44` a sphere pixel is outlined exactly when a plane
+/// pixel lies within 6 pixels (in x and y) and the plane is farther than
+/// it by more than 0.44 × 9 = 3.96: the sphere's front at radius r lies
+/// sqrt(ρ² − r²) before its centre, so the rim (r above 0.804) stays
+/// unoutlined next to the plane while the band inside it is outlined.
+/// Pixels within 0.01 of a decision are left out.
+#[test]
+fn an_outline_jump_outlines_only_steps_deeper_than_its_fraction_of_the_depth_range() {
+    let dir = scratch("view-jump");
+    let path = dir.join("step.ron");
+    std::fs::write(
+        &path,
+        r#"Scene(
+    camera: (eye: (0.0, 0.0, 10.0), target: (0.0, 0.0, 0.0), resolution: (64, 64), projection: Orthographic(height: 4.0)),
+    background: (0.0, 0.0, 0.0),
+    surface: (0.8, 0.5, 0.3),
+    lights: [(direction: (0.3, 0.5, 1.0))],
+    iso: 0.5,
+    bounds: Some((min: (-10.0, -10.0, -6.0), max: (10.0, 10.0, 3.0))),
+    marching: (method: "quadratic-taylor", min_step: 0.001),
+    groups: [(primitives: [
+        Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 2.0)),
+        Plane(normal: (0.0, 0.0, 1.0), offset: -4.0, radius: 1.0),
+    ])],
+)"#,
+    )
+    .unwrap();
+    let png = dir.join("jump.png");
+    isomarch(["render", path.to_str().unwrap(), "-o", png.to_str().unwrap()])
+        .args(["--outline", "6", "--outline-jump", "0.44", "--outline-color", "#00ff00"])
+        .ok();
+    let img = image::open(&png).unwrap().to_rgb8();
+    let shell = (1.0 - 0.5f64.cbrt()).sqrt();
+    let (rho, plane_depth) = (2.0 * shell, 10.0 - (-4.0 + shell));
+    let threshold = 0.44 * 9.0;
+    // The pixel's centre, scene units from the axis.
+    let r = |x: i64, y: i64| ((x as f64 + 0.5) / 16.0 - 2.0).hypot((y as f64 + 0.5) / 16.0 - 2.0);
+    let (mut outlined, mut rim, mut plain) = (0, 0, 0);
+    for (x, y, p) in img.enumerate_pixels() {
+        let (x, y) = (i64::from(x), i64::from(y));
+        let green = p.0 == [0, 255, 0];
+        let at = format!("pixel ({x}, {y}) at {:.4} from the axis, the sphere's radius {rho:.4}", r(x, y));
+        if r(x, y) > rho + 0.01 {
+            assert!(!green, "{at}: a plane pixel is outlined (nothing within 6 pixels is farther)");
+            plain += 1;
+            continue;
+        }
+        if r(x, y) > rho - 0.01 {
+            continue;
+        }
+        let jump = plane_depth - (10.0 - (rho * rho - r(x, y).powi(2)).sqrt());
+        if (jump - threshold).abs() < 0.01 {
+            continue;
+        }
+        let window =
+            || (x - 6..=x + 6).flat_map(move |u| (y - 6..=y + 6).map(move |v| (u, v))).filter(|&(u, v)| (0..64).contains(&u) && (0..64).contains(&v));
+        let sure_plane = window().any(|(u, v)| r(u, v) > rho + 0.01);
+        let maybe_plane = window().any(|(u, v)| r(u, v) > rho - 0.01);
+        if jump > threshold && sure_plane {
+            assert!(green, "{at}: the plane lies {jump:.4} behind, beyond 0.44 of the depth range ({threshold:.2}), within 6 pixels, but no outline");
+            outlined += 1;
+        } else if jump < threshold && sure_plane {
+            assert!(!green, "{at}: the plane lies only {jump:.4} behind (the threshold {threshold:.2}), yet outlined");
+            rim += 1;
+        } else if !maybe_plane {
+            assert!(!green, "{at}: no plane within 6 pixels, yet outlined");
+            plain += 1;
+        }
+    }
+    // Counted in f64: 388 outlined, 108 rim pixels, 3544 others.
+    assert!(outlined > 300 && rim > 80 && plain > 3000, "{outlined} pixels outlined, {rim} rim pixels not, {plain} others");
+}
+
+/// Zooming an orthographic view shrinks its height and leaves the eye
+/// (src/scene/turn.rs; the viewer's wheel does the same): a scene file's
+/// `Orthographic(height: 8.0)` with `--zoom 2` renders as the same file at
+/// height 4, byte for byte, a disc of ρ/4·96 pixels' radius within a pixel.
+#[test]
+fn zooming_an_orthographic_view_halves_its_height() {
+    let dir = scratch("view-ortho-zoom");
+    let rho = 2.0 * (1.0 - 0.5f64.cbrt()).sqrt();
+    let file = |height: f64| -> std::path::PathBuf {
+        let path = dir.join(format!("ball-{height}.ron"));
+        let camera = format!(
+            "eye: (0.0, 0.0, 30.0), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96), projection: Orthographic(height: {height:?})"
+        );
+        std::fs::write(&path, ball_scene(&camera, 2.0, "")).unwrap();
+        path
+    };
+    let render = |input: &std::path::Path, extra: &[&str], name: &str| -> Vec<u8> {
+        let png = dir.join(name);
+        isomarch(["render", input.to_str().unwrap(), "-o", png.to_str().unwrap()]).args(extra).ok();
+        std::fs::read(png).unwrap()
+    };
+    let zoomed = render(&file(8.0), &["--zoom", "2"], "zoomed.png");
+    assert!(zoomed == render(&file(4.0), &[], "four.png"), "--zoom 2 of a view 8 high renders otherwise than a view 4 high");
+    let img = image::load_from_memory(&zoomed).unwrap().to_rgb8();
+    let measured = (img.pixels().filter(|p| p.0.iter().any(|&c| c > 0)).count() as f64 / std::f64::consts::PI).sqrt();
+    let expected = rho / 4.0 * 96.0;
+    assert!((measured - expected).abs() < 1.0, "--zoom 2: a disc of radius {measured:.2} pixels, expected {expected:.2}");
+}
+
+/// `--camera FILE` is the camera whole and drops the scene's camera path:
+/// 1A8O with `--turntable 4` at time 1 (a quarter orbit) renders as at
+/// time 0 under `--camera`, byte for byte. The turns come after the
+/// camera, whatever the order on the command line: `--turn y:90 --camera
+/// FILE` renders the file's camera turned by the library, byte for byte,
+/// and not the file's camera alone.
+#[test]
+fn a_camera_file_drops_the_scenes_path_and_the_turns_come_after_it() {
+    let dir = scratch("view-camera-path");
+    let camera = dir.join("camera.ron");
+    std::fs::write(&camera, "(eye: (60.0, 30.0, 90.0), target: (19.0, 37.0, 17.0), up: (0.0, 1.0, 0.0), fov_y: 20.0, resolution: (48, 40))\n")
+        .unwrap();
+    let cam = camera.to_str().unwrap();
+    let pdb = repo_root().join("tests/data/molecules/1A8O.pdb");
+    let render = |extra: &[&str], name: &str| -> Vec<u8> {
+        let png = dir.join(name);
+        isomarch(["render", pdb.to_str().unwrap(), "-o", png.to_str().unwrap()]).args(extra).ok();
+        std::fs::read(png).unwrap()
+    };
+    let still = render(&["--camera", cam], "still.png");
+    let later = render(&["--camera", cam, "--turntable", "4", "--time", "1"], "later.png");
+    assert!(later == still, "--camera keeps the turntable's path: time 1 differs from the file's camera");
+    // fig10 (no path) from a camera of its own: the turn given before
+    // --camera still applies to it.
+    let fig10 = repo_root().join("scenes/fig10.ron");
+    let camera = dir.join("fig10-camera.ron");
+    std::fs::write(&camera, "(eye: (12.0, 4.0, 10.0), target: (0.0, 0.5, 0.0), fov_y: 40.0, resolution: (48, 40))\n").unwrap();
+    let png = dir.join("turned.png");
+    isomarch(["render", fig10.to_str().unwrap(), "-o", png.to_str().unwrap(), "--turn", "y:90", "--camera", camera.to_str().unwrap()]).ok();
+    let turned = image::open(&png).unwrap().to_rgb8();
+    let mut scene = isomarch::scene::Scene::load(&fig10).unwrap();
+    let file = isomarch::scene::Camera::load(&camera).unwrap();
+    let shown = |scene: &isomarch::scene::Scene, ctx: &std::sync::Arc<isomarch::gpu::Context>| {
+        let job = RenderJob::new(scene.clone(), scene.marching.method, (48, 40), PathBuf::new(), std::time::Duration::from_secs(300));
+        render_frame(ctx, &job).unwrap().0.shaded()
+    };
+    let ctx = gpu();
+    scene.camera = file.clone();
+    let unturned = shown(&scene, &ctx);
+    let background = unturned.get_pixel(0, 0).0;
+    let shapes = unturned.pixels().filter(|p| p.0 != background).count();
+    assert!(shapes > 300, "fig10 covers only {shapes} pixels of its own camera's view");
+    scene.camera = file.turned(Turn { axis: ViewAxis::Y, degrees: 90.0 });
+    assert!(turned == shown(&scene, &ctx), "--turn y:90 --camera FILE renders otherwise than the file's camera turned");
+    let differing = turned.pixels().zip(unturned.pixels()).filter(|(p, q)| p != q).count();
+    assert!(differing > 200, "--turn y:90 --camera FILE differs from the file's camera alone in only {differing} pixels: the turn was lost");
+    assert_no_validation(&ctx);
+}
+
+/// `isomarch scene` writes `--ortho`, `--clip` and `--background` into the
+/// file: its camera's projection is the perspective view's height at the
+/// target, its clip `near` the one given, its background the linear
+/// colour given; and the file renders as the flags do, byte for byte
+/// (not as the molecule does without them), its corners the background.
+#[test]
+fn scene_writes_the_projection_clipping_and_background_into_the_file() {
+    let dir = scratch("view-scene-look");
+    let pdb = repo_root().join("tests/data/molecules/1A8O.pdb");
+    let flags = ["--ortho", "--clip", "near:80", "--background", "0.1,0.2,0.3"];
+    let (plain_ron, ron) = (dir.join("plain.ron"), dir.join("look.ron"));
+    isomarch(["scene", pdb.to_str().unwrap(), "-o", plain_ron.to_str().unwrap()]).ok();
+    isomarch(["scene", pdb.to_str().unwrap(), "-o", ron.to_str().unwrap()]).args(flags).ok();
+    let (plain, written) = (isomarch::scene::Scene::load(&plain_ron).unwrap(), isomarch::scene::Scene::load(&ron).unwrap());
+    let c = &plain.camera;
+    let height = 2.0 * (c.target - c.eye).length() * (0.5 * c.fov_y_deg.to_radians()).tan();
+    assert_eq!(written.camera.projection, isomarch::scene::Projection::Orthographic { height }, "the file's projection");
+    assert_eq!((written.camera.clip.near, written.camera.clip.far), (Some(80.0), None), "the file's clipping");
+    assert_eq!(written.background, DVec3::new(0.1, 0.2, 0.3), "the file's background");
+    assert_eq!((written.camera.eye, written.camera.target), (c.eye, c.target), "the camera moved");
+    let render = |input: &std::path::Path, extra: &[&str], name: &str| -> Vec<u8> {
+        let png = dir.join(name);
+        isomarch(["render", input.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "64x64"]).args(extra).ok();
+        std::fs::read(png).unwrap()
+    };
+    let from_file = render(&ron, &[], "file.png");
+    assert!(from_file == render(&pdb, &flags, "flags.png"), "the scene file renders otherwise than the flags");
+    assert!(from_file != render(&pdb, &[], "plain.png"), "the flags changed nothing");
+    let img = image::load_from_memory(&from_file).unwrap().to_rgb8();
+    let srgb = isomarch::output::srgb;
+    assert_eq!(img.get_pixel(0, 0).0, [srgb(0.1), srgb(0.2), srgb(0.3)], "the corner is not the background given");
+    let hits = img.pixels().filter(|p| p.0 != [srgb(0.1), srgb(0.2), srgb(0.3)]).count();
+    assert!(hits > 400, "only {hits} pixels show the molecule");
+}
+
+/// Clip planes in a scene file, in closed form: the sphere of radius ρ =
+/// 3·sqrt(1 − cbrt(0.5)) about the origin seen from z = 12, and
+/// `camera.clip.planes: [(point: (0.3, 0, 0), normal: (1, 0, -1))]`, which
+/// keeps x − z >= 0.3 (world space, at 45° to the view; the eye is on the
+/// side removed). Every ray enters the kept side at t0 = 12.3 / (d.x − d.z):
+/// inside the sphere there it hits the cap at t0, with the plane's normal
+/// turned to the eye, (−1, 0, 1)/√2; else it hits the sphere where it first
+/// meets it after t0; else it misses. Every pixel 0.01 from a decision is
+/// checked, depth (the AOV) within 1e-3. A file whose `near` is not before
+/// its `far` is refused in one line, and so is `--clip far` not beyond the
+/// file's `near`.
+#[test]
+fn a_clip_plane_in_a_scene_file_cuts_in_world_space_and_caps() {
+    let dir = scratch("view-planes");
+    let camera = |clip: &str| format!("eye: (0.0, 0.0, 12.0), target: (0.0, 0.0, 0.0), fov_y: 30.0, resolution: (96, 96), clip: ({clip})");
+    let path = dir.join("planes.ron");
+    let lights = "lights: [(direction: (0.3, 0.8, 0.5))],";
+    std::fs::write(&path, ball_scene(&camera("planes: [(point: (0.3, 0.0, 0.0), normal: (1.0, 0.0, -1.0))]"), 3.0, lights)).unwrap();
+    let exr = dir.join("planes.exr");
+    isomarch(["render", path.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--aov", "depth,normal"]).ok();
+    let layers = exr::prelude::read_all_flat_layers_from_file(&exr).unwrap();
+    let (depth, nx, nz) = (exr_channel(&layers, "Z"), exr_channel(&layers, "normal.X"), exr_channel(&layers, "normal.Z"));
+    let rho = 3.0 * (1.0 - 0.5f64.cbrt()).sqrt();
+    let eye = DVec3::new(0.0, 0.0, 12.0);
+    let half = 15f64.to_radians().tan();
+    let cap_normal = std::f64::consts::FRAC_1_SQRT_2;
+    let (mut caps, mut sphere, mut cut) = (0, 0, 0);
+    for y in 0..96u32 {
+        for x in 0..96u32 {
+            let i = (y * 96 + x) as usize;
+            let (sx, sy) = ((2.0 * (f64::from(x) + 0.5) / 96.0 - 1.0) * half, (1.0 - 2.0 * (f64::from(y) + 0.5) / 96.0) * half);
+            let d = DVec3::new(sx, sy, -1.0).normalize();
+            let at = format!("pixel ({x}, {y}): depth {}, normal ({}, {})", depth[i], nx[i], nz[i]);
+            let (b, c) = (eye.dot(d), eye.length_squared() - rho * rho);
+            let disc = b * b - c;
+            let t0 = 12.3 / (d.x - d.z);
+            let entry = (eye + t0 * d).length();
+            if (entry - rho).abs() < 0.01 || disc.abs() < 0.01 {
+                continue;
+            }
+            if entry < rho {
+                assert!((f64::from(depth[i]) - t0).abs() < 1e-3, "{at}: the cap is at {t0:.5}");
+                let normal = (f64::from(nx[i]) + cap_normal).abs().max((f64::from(nz[i]) - cap_normal).abs());
+                assert!(normal < 1e-4, "{at}: the cap's normal is the plane's, towards the eye, (-0.7071, 0, 0.7071)");
+                caps += 1;
+            } else if disc > 0.0 && -b - disc.sqrt() > t0 + 0.01 {
+                let t = -b - disc.sqrt();
+                assert!((f64::from(depth[i]) - t).abs() < 1e-3, "{at}: the sphere is met at {t:.5}, past the plane");
+                sphere += 1;
+            } else if disc < 0.0 || -b + disc.sqrt() < t0 - 0.01 {
+                assert!(!depth[i].is_finite(), "{at}: the ray meets no kept part of the sphere");
+                cut += usize::from(disc > 0.0);
+            }
+        }
+    }
+    // Measured in f64: 876 cap pixels, 64 on the sphere, 330 cut away.
+    assert!(caps > 600 && sphere > 40 && cut > 200, "{caps} cap pixels, {sphere} on the sphere, {cut} cut away");
+    // near not before far: in the file, and merged with --clip.
+    for (clip, flag, says) in [
+        ("near: 12.0, far: 11.0", None, "camera.clip: near (12) must be closer than far (11)"),
+        ("near: Some(12.0), far: Some(12.0)", None, "camera.clip: near (12) must be closer than far (12)"),
+        ("near: 12.0", Some("far:11"), "--clip: near (12) must be closer than far (11), the scene's camera.clip included"),
+    ] {
+        let bad = dir.join("bad.ron");
+        std::fs::write(&bad, ball_scene(&camera(clip), 3.0, lights)).unwrap();
+        let png = dir.join("bad.png");
+        let err = isomarch(["render", bad.to_str().unwrap(), "-o", png.to_str().unwrap()])
+            .args(flag.map(|f| ["--clip", f]).iter().flatten())
+            .fails_in_one_line();
+        assert!(err.contains(says), "{clip} {flag:?}: {err}");
+        assert!(!png.exists(), "{clip}: a refused clip wrote an image");
+    }
+}

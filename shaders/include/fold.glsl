@@ -152,18 +152,12 @@ Fold fold_indexed(uint what, Query q, inout float len) {
     for (uint g = 0u; g < globals.sizes.y; ++g) {
         Terms sum = no_terms();
         bool met = g == 0u;
-        uint list = everywhere_list(g);
-        uint end = list_start(list + 1u);
-        g_visits += end - list_start(list);
-        for (uint at = list_start(list); at < end; ++at) {
-            GpuPrimitive pr = load_prim(list_entry(at));
-            if (SC_BRACKET != 0u && !q.point) g_reach = min(g_reach, reach_entry(pr, q));
-            add_terms(what, pr, q, sum, len);
-            met = true;
-        }
         if (SC_TILES != 0u) {
-            list = tile_list(g);
-            end = list_start(list + 1u);
+            // Every primitive is in the tile lists, those of the grid's
+            // everywhere lists too; and a tile pipeline's list bindings
+            // hold the tile lists, not the grid's (Renderer::buffers_for).
+            uint list = tile_list(g);
+            uint end = list_start(list + 1u);
             // A point query's point is on the ray, at tq.
             float tq = q.point ? distance(q.o, g_origin) : q.t0;
             float horizon = tile_horizon(q.point ? tq : q.t1);
@@ -193,6 +187,15 @@ Fold fold_indexed(uint what, Query q, inout float len) {
             }
             if (met) fold_group(what, sum, len, r);
             continue;
+        }
+        uint list = everywhere_list(g);
+        uint end = list_start(list + 1u);
+        g_visits += end - list_start(list);
+        for (uint at = list_start(list); at < end; ++at) {
+            GpuPrimitive pr = load_prim(list_entry(at));
+            if (SC_BRACKET != 0u && !q.point) g_reach = min(g_reach, reach_entry(pr, q));
+            add_terms(what, pr, q, sum, len);
+            met = true;
         }
         Dda c = start;
         for (bool more = in_grid; more; more = !q.point && dda_advance(c)) {
