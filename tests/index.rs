@@ -567,7 +567,7 @@ fn camera_rays_through_tile_lists_find_the_references_hits() {
         for (k, hit) in reference_hits(&s, &sampled, false).into_iter().enumerate() {
             reference[k * stride] = hit;
         }
-        let referenced = |i: usize| i % stride == 0;
+        let referenced = |i: usize| i.is_multiple_of(stride);
         let hits = reference.iter().filter(|h| h.is_some()).count();
         assert!(5 * hits * stride >= pixels.len(), "{what}: only {hits} hits among {} rays", sampled.len());
         let opaque = MarchOptions { shade: false, ..MarchOptions::for_scene(&s) };
