@@ -17,6 +17,8 @@ use std::path::{Path, PathBuf};
 #[path = "../src/layout.rs"]
 #[allow(dead_code)]
 mod layout;
+#[path = "src/options.rs"]
+mod options;
 
 fn main() {
     if let Err(message) = run() {
@@ -124,22 +126,8 @@ struct Kernel {
 
 /// Compiles a kernel without optimisation and throws the SPIR-V away.
 fn check(compiler: &shaderc::Compiler, k: &Kernel, includes: &[(String, String)]) -> Result<(), String> {
-    let mut options = shaderc::CompileOptions::new().map_err(|e| format!("shaderc options: {e}"))?;
-    options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
-    options.set_source_language(shaderc::SourceLanguage::GLSL);
-    options.set_optimization_level(shaderc::OptimizationLevel::Zero);
-    options.set_warnings_as_errors();
-    if let Some((name, value)) = k.define {
-        options.add_macro_definition(name, Some(value));
-    }
-    let includes = includes.to_vec();
-    options.set_include_callback(move |name, _kind, _from, _depth| {
-        includes
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(n, text)| shaderc::ResolvedInclude { resolved_name: n.clone(), content: text.clone() })
-            .ok_or_else(|| format!("cannot include {name}: no such file in shaders/include"))
-    });
+    let options =
+        options::options(shaderc::OptimizationLevel::Zero, k.define, |name| includes.iter().find(|(n, _)| n == name).map(|(_, text)| text.clone()))?;
     compiler
         .compile_into_spirv(&k.source, shaderc::ShaderKind::Compute, &k.file.display().to_string(), "main", Some(&options))
         .map(|_| ())

@@ -13,6 +13,8 @@
 //! a kernel, but lavapipe then spends a minute or more making each
 //! pipeline: docs/performance.md, "The shaders' build").
 
+mod options;
+
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -169,20 +171,7 @@ fn compile(k: &KernelSource, level: shaderc::OptimizationLevel, kept_in: Option<
         eprintln!("isomarch: compiling the {} kernel, once (kept in {})", k.name, dir.display());
     }
     let compiler = shaderc::Compiler::new().map_err(|e| format!("shaderc: {e}"))?;
-    let mut options = shaderc::CompileOptions::new().map_err(|e| format!("shaderc options: {e}"))?;
-    options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
-    options.set_source_language(shaderc::SourceLanguage::GLSL);
-    options.set_optimization_level(level);
-    if let Some((name, value)) = k.define {
-        options.add_macro_definition(name, Some(value));
-    }
-    options.set_include_callback(|name, _kind, _from, _depth| {
-        INCLUDES
-            .iter()
-            .find(|(n, _)| *n == name)
-            .map(|(n, text)| shaderc::ResolvedInclude { resolved_name: (*n).into(), content: (*text).into() })
-            .ok_or_else(|| format!("cannot include {name}"))
-    });
+    let options = options::options(level, k.define, |name| INCLUDES.iter().find(|(n, _)| *n == name).map(|(_, text)| text.to_string()))?;
     let artifact = compiler
         .compile_into_spirv(k.source, shaderc::ShaderKind::Compute, k.file, "main", Some(&options))
         .map_err(|e| format!("compiling the {} kernel: {e}", k.name))?;
