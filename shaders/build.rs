@@ -50,7 +50,11 @@ fn run() -> Result<(), String> {
         let name = file.strip_prefix(&include_dir).unwrap_or(&file).display().to_string();
         includes.push((name, file));
     }
-    for (name, text) in [("layout.glsl", layout::glsl()), ("layout_bindings.glsl", layout::glsl_bindings_file())] {
+    for (name, text) in [
+        ("layout.glsl", layout::glsl()),
+        ("layout_bindings.glsl", layout::glsl_bindings_file()),
+        ("look_bindings.glsl", layout::glsl_look_bindings_file()),
+    ] {
         let path = out.join(name);
         std::fs::write(&path, text).map_err(|e| format!("writing {name}: {e}"))?;
         includes.push((name.to_string(), path));

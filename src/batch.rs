@@ -404,6 +404,7 @@ pub fn run(
                     (job.width, job.height),
                     job.samples,
                     job.effects,
+                    job.image_only(),
                 )?;
                 // GPU time of this frame's index build: 0 where a static scene
                 // reuses the first frame's, empty without an index (or without

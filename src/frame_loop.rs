@@ -121,7 +121,8 @@ pub fn run(ctx: &Arc<Context>, job: &RenderJob, trajectory: Option<Stager>, coun
             }
         };
         renderer.set_scene(&shown)?;
-        let (_, stats) = march_image(&mut renderer, job.method, options, &shown, (job.width, job.height), job.samples, job.effects)?;
+        // The image is not kept: made on the GPU wherever it can be.
+        let (_, stats) = march_image(&mut renderer, job.method, options, &shown, (job.width, job.height), job.samples, job.effects, true)?;
         let gpu_ms = stats.gpu_ms.map(|g| g + stats.any_hit.as_ref().and_then(|a| a.gpu_ms).unwrap_or(0.0));
         // Pipelines are made once, in the first frame: not the loop's cost.
         let made = renderer.pipeline_ms() - pipeline_ms;

@@ -149,6 +149,22 @@ gpu_structs! {
     /// A directional light: `dir.xyz` towards the light (unit), `color.rgb`
     /// already multiplied by the intensity.
     struct GpuLight { dir: Vec4, color: Vec4 }
+
+    /// The camera and the look of a frame made on the GPU (look.comp,
+    /// src/render/frame.rs). `eye.xyz` the eye, `eye.w` half the image
+    /// plane's width; `right`, `up`, `forward` the camera's unit axes, with
+    /// `right.w` half its height and `up.w` 1 for an orthographic camera;
+    /// `box_min`, `box_max` the scene's bounds, with `box_min.w` and
+    /// `box_max.w` the view depths where depth cueing starts and ends;
+    /// `background.rgb` the background (linear), `background.w` 1 for a
+    /// transparent one; `outline.rgb` the outlines' colour, `outline.w`
+    /// the depth jump they follow; `dims`: width, height, tiles per row,
+    /// samples per pixel; `flags`: x 1 with depth cueing, y the outlines'
+    /// width (0: none), z the sub-pixel samples' seed.
+    struct GpuLook {
+        eye: Vec4, right: Vec4, up: Vec4, forward: Vec4, box_min: Vec4, box_max: Vec4, background: Vec4, outline: Vec4,
+        dims: UVec4, flags: UVec4,
+    }
 }
 
 /// Primitive kinds (`GpuPrimitive::ids.x`).
@@ -343,6 +359,22 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("FLAG_REFINE_ENTERING", FLAG_REFINE_ENTERING),
     ("FLAG_ENDED", FLAG_ENDED),
     ("MAX_CROSSINGS", MAX_CROSSINGS),
+    ("LOOK_PASS_CAMERA", LOOK_PASS_CAMERA),
+    ("LOOK_PASS_SAMPLE", LOOK_PASS_SAMPLE),
+    ("LOOK_PASS_ACCUMULATE", LOOK_PASS_ACCUMULATE),
+    ("LOOK_PASS_FINISH", LOOK_PASS_FINISH),
+    ("LOOK_PASS_GATE", LOOK_PASS_GATE),
+    ("LOOK_STAT_RAYS", LOOK_STAT_RAYS),
+    ("LOOK_STAT_HITS", LOOK_STAT_HITS),
+    ("LOOK_STAT_OUT_OF_STEPS", LOOK_STAT_OUT_OF_STEPS),
+    ("LOOK_STAT_MAX_STEPS", LOOK_STAT_MAX_STEPS),
+    ("LOOK_STAT_STEPS", LOOK_STAT_STEPS),
+    ("LOOK_STAT_EVALS", LOOK_STAT_EVALS),
+    ("LOOK_STAT_REFINE", LOOK_STAT_REFINE),
+    ("LOOK_STAT_VISITS", LOOK_STAT_VISITS),
+    ("LOOK_STAT_TURNS", LOOK_STAT_TURNS),
+    ("LOOK_STAT_UNFINISHED", LOOK_STAT_UNFINISHED),
+    ("LOOK_STAT_WORDS", LOOK_STAT_WORDS),
     ("REFINE_SECANT", REFINE_SECANT),
     ("REFINE_BISECTION", REFINE_BISECTION),
     ("REFINE_INCLUSION", REFINE_INCLUSION),
@@ -521,6 +553,61 @@ pub const BINDINGS: &[Binding] = &[
     },
 ];
 
+/// The bindings of look.comp, which makes a frame's camera rays and its
+/// image from the march's results (src/render/frame.rs).
+pub const LOOK_BINDINGS: &[Binding] = &[
+    Binding {
+        index: 0,
+        resource: Resource::Uniform(Block { access: Access::ReadOnly, name: "LookBuffer", member: "GpuLook look" }),
+        probe: None,
+        doc: &[],
+    },
+    Binding {
+        doc: &["The march's rays (binding 3 of the march), written by the camera pass."],
+        ..buffer(1, Access::ReadWrite, "RayBuffer", "GpuRay rays[]")
+    },
+    buffer(2, Access::ReadOnly, "ResultBuffer", "GpuResult results[]"),
+    Binding {
+        doc: &["One sample's pixels: linear colour (rgb) and view depth (w, infinite on a miss)."],
+        ..buffer(3, Access::ReadWrite, "SampleBuffer", "vec4 sample_pixels[]")
+    },
+    Binding { doc: &["The sum of the samples: colour (rgb) and coverage (w)."], ..buffer(4, Access::ReadWrite, "AccumBuffer", "vec4 accum[]") },
+    Binding { doc: &["The image: 8-bit sRGB and alpha, red lowest."], ..buffer(5, Access::WriteOnly, "ImageBuffer", "uint image[]") },
+    Binding {
+        doc: &["The march's statistics (LOOK_STAT_*), 64-bit sums as low and high words."],
+        ..buffer(6, Access::ReadWrite, "StatBuffer", "uint stats[]")
+    },
+    Binding {
+        doc: &["The march's count of rays still marching (binding 6 of the march)."],
+        ..buffer(7, Access::ReadWrite, "ActiveBuffer", "uint active_rays")
+    },
+    Binding {
+        doc: &["The next slice's workgroups (an indirect dispatch's x, y, z)."],
+        ..buffer(8, Access::ReadWrite, "IndirectBuffer", "uint next_groups[]")
+    },
+];
+
+/// look.comp's passes (its push constant `pass`).
+pub const LOOK_PASS_CAMERA: u32 = 0;
+pub const LOOK_PASS_SAMPLE: u32 = 1;
+pub const LOOK_PASS_ACCUMULATE: u32 = 2;
+pub const LOOK_PASS_FINISH: u32 = 3;
+pub const LOOK_PASS_GATE: u32 = 4;
+
+/// look.comp's statistics, by word: counts, then 64-bit sums (two words).
+pub const LOOK_STAT_RAYS: u32 = 0;
+pub const LOOK_STAT_HITS: u32 = 1;
+pub const LOOK_STAT_OUT_OF_STEPS: u32 = 2;
+pub const LOOK_STAT_MAX_STEPS: u32 = 3;
+pub const LOOK_STAT_STEPS: u32 = 4;
+pub const LOOK_STAT_EVALS: u32 = 6;
+pub const LOOK_STAT_REFINE: u32 = 8;
+pub const LOOK_STAT_VISITS: u32 = 10;
+pub const LOOK_STAT_TURNS: u32 = 12;
+/// Set when a sample's recorded slices ended with rays still marching.
+pub const LOOK_STAT_UNFINISHED: u32 = 14;
+pub const LOOK_STAT_WORDS: u32 = 15;
+
 /// The GLSL declaration of `block` at binding `index`.
 fn glsl_block(index: u32, block: &Block) -> String {
     format!("layout(std430, binding = {index}) {}buffer {} {{ {}; }};\n", block.access.qualifier(), block.name, block.member)
@@ -545,8 +632,12 @@ fn glsl_resource(index: u32, resource: &Resource) -> String {
 /// GLSL declarations of every binding, in binding order; the bounds
 /// probe's alternatives under `#ifdef BOUNDS_PROBE`.
 pub fn glsl_bindings() -> String {
+    glsl_bindings_of(BINDINGS)
+}
+
+fn glsl_bindings_of(bindings: &[Binding]) -> String {
     let mut s = String::new();
-    for b in BINDINGS {
+    for b in bindings {
         for line in b.doc {
             s.push_str(&format!("// {line}\n"));
         }
@@ -571,6 +662,17 @@ pub fn glsl_bindings_file() -> String {
         "// Generated by shaders/build.rs from src/layout.rs: do not edit.\n#ifndef LAYOUT_BINDINGS_GLSL\n#define LAYOUT_BINDINGS_GLSL\n#include \"layout.glsl\"\n",
     );
     s.push_str(&glsl_bindings());
+    s.push_str("#endif\n");
+    s
+}
+
+/// The whole generated `look_bindings.glsl`: look.comp's bindings
+/// ([`LOOK_BINDINGS`]).
+pub fn glsl_look_bindings_file() -> String {
+    let mut s = String::from(
+        "// Generated by shaders/build.rs from src/layout.rs: do not edit.\n#ifndef LOOK_BINDINGS_GLSL\n#define LOOK_BINDINGS_GLSL\n#include \"layout.glsl\"\n",
+    );
+    s.push_str(&glsl_bindings_of(LOOK_BINDINGS));
     s.push_str("#endif\n");
     s
 }

@@ -757,7 +757,7 @@ fn a_renderer_drops_its_tile_lists_when_the_camera_turns_orthographic() {
     let (s, ortho) = (s.recentred_on_camera(), ortho.recentred_on_camera());
     let options = MarchOptions::for_scene(&s);
     let frame = |r: &mut Renderer, scene: &Scene| {
-        march_image(r, Method::QuadraticTaylor, options, scene, (48, 48), 1, Effects::default()).unwrap().0.shaded()
+        march_image(r, Method::QuadraticTaylor, options, scene, (48, 48), 1, Effects::default(), false).unwrap().0.shaded()
     };
     let timeout = std::time::Duration::from_secs(300);
     let mut renderer = Renderer::for_camera(&ctx, &s, timeout).unwrap();

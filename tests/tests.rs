@@ -15,6 +15,7 @@ mod extremes;
 mod fuzz_corpus;
 mod generate;
 mod golden;
+mod gpu_frame;
 mod gpu_harness;
 mod hrbf;
 mod inclusion;

@@ -7,7 +7,7 @@
 //! the first time a process asks for it, or reads the SPIR-V that an
 //! earlier run left in the cache ([`cache_dir`]). So a picture pays for the
 //! one or two kernels it uses, and only once per machine: spirv-opt spends
-//! about a minute on a marching kernel on 2 cores, and there are eight.
+//! about a minute on a marching kernel on 2 cores, and there are nine (most of them marching).
 //!
 //! `ISOMARCH_SHADER_OPT=zero` compiles without optimisation (under a second
 //! a kernel, but lavapipe then spends a minute or more making each
@@ -52,11 +52,13 @@ pub enum Kernel {
     BoundsIndexed,
     /// The spatial index's build.
     Index,
+    /// A frame's camera rays and image around the march (look.comp).
+    Look,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 8] = [
+    pub const ALL: [Kernel; 9] = [
         Kernel::March,
         Kernel::MarchIndexed,
         Kernel::MarchBracket,
@@ -65,6 +67,7 @@ impl Kernel {
         Kernel::Bounds,
         Kernel::BoundsIndexed,
         Kernel::Index,
+        Kernel::Look,
     ];
 
     /// The kernel's name: its source file's stem and its variant's suffix
@@ -79,6 +82,7 @@ impl Kernel {
             Kernel::Bounds => "bounds",
             Kernel::BoundsIndexed => "bounds_indexed",
             Kernel::Index => "index",
+            Kernel::Look => "look",
         }
     }
 
@@ -89,7 +93,7 @@ impl Kernel {
     /// The kernel's SPIR-V: compiled on this process's first call, unless
     /// the cache holds it. A second call returns the same words at once.
     pub fn spirv(self) -> Result<&'static [u32], String> {
-        static COMPILED: [OnceLock<Result<Vec<u32>, String>>; 8] = [const { OnceLock::new() }; 8];
+        static COMPILED: [OnceLock<Result<Vec<u32>, String>>; Kernel::ALL.len()] = [const { OnceLock::new() }; Kernel::ALL.len()];
         let index = Kernel::ALL.iter().position(|&k| k == self).unwrap_or_default();
         COMPILED[index].get_or_init(|| load_or_compile(self.source()?)).as_deref().map_err(Clone::clone)
     }

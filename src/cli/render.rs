@@ -191,6 +191,8 @@ impl TryFrom<RenderArgs> for Plan {
             transparent_background: args.transparent_background,
             effects,
             samples: checks::samples(args.samples.unwrap_or(scene.camera.samples))?,
+            // Only the files are written: the image alone where it will do.
+            results: false,
             ..RenderJob::new(scene, method, size, args.output, args.flags.gpu.timeout()?)
         };
         // Every output's format from its extension, before any work.
@@ -230,6 +232,7 @@ impl Batch {
             legend,
             transparent_background: args.transparent_background,
             effects,
+            results: false,
             ..RenderJob::new(scene, method, size, output, args.flags.gpu.timeout()?)
         };
         // The pattern's format, and a legend only on PNG with a background,

@@ -34,8 +34,12 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 pub struct Frame {
     pub width: u32,
     pub height: u32,
-    /// Row-major, top row first.
+    /// Row-major, top row first. Empty where the frame was made on the
+    /// GPU and only its image read back (`encoded`).
     pub pixels: Vec<GpuResult>,
+    /// The 8-bit sRGB image made on the GPU (render::frame), RGBA
+    /// row-major, in place of the pixels' results.
+    pub encoded: Option<Vec<u8>>,
 }
 
 impl Frame {
@@ -48,11 +52,22 @@ impl Frame {
                 pixels[*p as usize] = *r;
             }
         }
-        Frame { width, height, pixels }
+        Frame { width, height, pixels, encoded: None }
+    }
+
+    /// A frame made on the GPU: its 8-bit sRGB image alone (opaque).
+    pub fn encoded(width: u32, height: u32, rgba: Vec<u8>) -> Frame {
+        Frame { width, height, pixels: Vec::new(), encoded: Some(rgba) }
     }
 
     /// The shaded image, linear colour encoded as sRGB.
     pub fn shaded(&self) -> image::RgbImage {
+        if let Some(rgba) = &self.encoded {
+            return image::RgbImage::from_fn(self.width, self.height, |x, y| {
+                let i = 4 * (y * self.width + x) as usize;
+                image::Rgb([rgba[i], rgba[i + 1], rgba[i + 2]])
+            });
+        }
         image::RgbImage::from_fn(self.width, self.height, |x, y| {
             let c = self.pixels[(y * self.width + x) as usize].color;
             image::Rgb([srgb(c[0]), srgb(c[1]), srgb(c[2])])

@@ -1,6 +1,7 @@
 //! Marching rays on the GPU: scene upload, specialised pipelines, tiled
 //! dispatches with deadlines.
 
+pub mod frame;
 pub mod index;
 pub mod light;
 pub mod offscreen;
@@ -293,6 +294,9 @@ pub struct Renderer {
     index_fresh: bool,
     /// Give up when the GPU is not done by then (given when it is made).
     timeout: Duration,
+    /// The kernel and buffers of frames made on the GPU (render::frame),
+    /// made with the first.
+    look: Option<frame::LookPass>,
 }
 
 /// How long a renderer's GPU work may take unless its maker says
@@ -300,7 +304,7 @@ pub struct Renderer {
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(600);
 
 /// The switches the environment may turn off to measure what they buy.
-pub const ENV_SWITCHES: [&str; 3] = ["ISOMARCH_INDEX", "ISOMARCH_BRACKET", "ISOMARCH_TILES"];
+pub const ENV_SWITCHES: [&str; 4] = ["ISOMARCH_INDEX", "ISOMARCH_BRACKET", "ISOMARCH_TILES", frame::GPU_FRAME_SWITCH];
 
 /// A switch of [`ENV_SWITCHES`]: on unless set to `off` (or `0`);
 /// `Err` names a value that is neither, which [`check_environment`]
@@ -578,6 +582,7 @@ impl Renderer {
             ctx: Arc::clone(ctx),
             scene: scene.clone(),
             timeout,
+            look: None,
         };
         Ok(renderer)
     }
@@ -738,6 +743,9 @@ impl Renderer {
         if let Some(p) = &self.index_pipeline {
             p.bind(&self.bound_buffers())?;
         }
+        if let Some(look) = &self.look {
+            look.bind(&self.rays, &self.results, &self.active)?;
+        }
         Ok(())
     }
 
@@ -820,9 +828,14 @@ impl Renderer {
     /// not the compiler. Every kernel returns first thing when its
     /// invocation is past `push[0]`, the count.
     fn warm_up(&mut self, handles: (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet)) -> Result<()> {
+        self.warm_up_with(handles, [0u32, 1, self.slice_steps, 0])
+    }
+
+    /// [`Renderer::warm_up`] with push constants under which no invocation
+    /// reads or writes a buffer.
+    fn warm_up_with(&mut self, handles: (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet), push: [u32; 4]) -> Result<()> {
         let deadline = Instant::now() + self.timeout;
         let (pipeline, layout, set) = handles;
-        let push = [0u32, 1, self.slice_steps, 0];
         self.submitter.run_with(deadline, self.timeout, &mut self.transfers, |d, cmd| {
             // SAFETY: as in `dispatch`; no invocation reads or writes a buffer.
             unsafe {
@@ -1048,23 +1061,24 @@ impl Renderer {
         self.tiles.as_ref().map(|t| t.stats)
     }
 
-    /// The march: camera rays from ray `camera_from` through the tile
-    /// lists when given, else through the grid or the flat list.
-    fn march_with(
+    /// What every march does before its first dispatch: the index built
+    /// unless the camera's tile lists serve it (`tiles`), the globals for
+    /// `method`, the method checked against the scene and the options.
+    /// Returns the pipeline, the turns of a slice and the most slices a
+    /// ray may take (every slice but a ray's last takes `slice_steps`
+    /// turns).
+    fn march_setup(
         &mut self,
         method: Method,
-        options: MarchOptions,
-        rays: &[GpuRay],
-        camera_from: Option<usize>,
-        mut progress: impl FnMut(usize),
-    ) -> Result<MarchOutput> {
-        if camera_from.is_none() {
+        options: &MarchOptions,
+        tiles: bool,
+    ) -> Result<((vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet), u32, u64)> {
+        if !tiles {
             self.ensure_index()?;
         }
-        let deadline = Instant::now() + self.timeout;
-        let handles = self.pipeline(EntryPoint::March, method, &options, camera_from.is_some())?;
-        let slice_steps = match (camera_from, &self.tiles) {
-            (Some(_), Some(t)) => t.slice_steps,
+        let handles = self.pipeline(EntryPoint::March, method, options, tiles)?;
+        let slice_steps = match (tiles, &self.tiles) {
+            (true, Some(t)) => t.slice_steps,
             _ => self.slice_steps,
         };
         self.globals.write(0, &[globals(&self.scene, options.growth_of(method), options.quad, self.grid.as_ref())])?;
@@ -1076,11 +1090,24 @@ impl Renderer {
                 "{method} marches opaque scenes only: its bisection looks for a first entering crossing; use an Algorithm 1 method for transparency, reflection and refraction"
             );
         }
+        Ok((handles, slice_steps, max_turns(self.scene.marching.max_steps) / u64::from(slice_steps) + 2))
+    }
+
+    /// The march: camera rays from ray `camera_from` through the tile
+    /// lists when given, else through the grid or the flat list.
+    fn march_with(
+        &mut self,
+        method: Method,
+        options: MarchOptions,
+        rays: &[GpuRay],
+        camera_from: Option<usize>,
+        mut progress: impl FnMut(usize),
+    ) -> Result<MarchOutput> {
+        let deadline = Instant::now() + self.timeout;
+        let (handles, slice_steps, max_slices) = self.march_setup(method, &options, camera_from.is_some())?;
         let mut results = Vec::with_capacity(rays.len());
         let mut crossings = Vec::new();
         let mut gpu_ns = Some(0.0);
-        // Every slice but a ray's last takes `slice_steps` turns.
-        let max_slices = max_turns(self.scene.marching.max_steps) / u64::from(slice_steps) + 2;
         let max = layout::MAX_CROSSINGS as usize;
         for (chunk, tile) in rays.chunks(TILE_RAYS).enumerate() {
             let first_tile = camera_from.map_or(0, |from| (from + chunk * TILE_RAYS) / WORKGROUP) as u32;

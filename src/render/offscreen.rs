@@ -39,6 +39,11 @@ pub struct RenderJob {
     pub transparent_background: bool,
     /// Depth cueing and outlines, drawn on each sample.
     pub effects: Effects,
+    /// Every ray's result read back, for whoever reads a frame's pixels
+    /// (depth, normals, steps: Python, tests). Off, a frame that needs no
+    /// more than its image is made whole on the GPU and only its 8-bit
+    /// image read back ([`RenderJob::image_only`]).
+    pub results: bool,
 }
 
 /// What is drawn on each sample's pixels after the march and the lights:
@@ -190,7 +195,20 @@ impl RenderJob {
             aov_output: None,
             stats: None,
             timeout,
+            results: true,
         }
+    }
+
+    /// Whether the job needs no more than the frame's 8-bit image: no
+    /// per-ray results asked for, no heatmap, AOVs or OpenEXR, an opaque
+    /// background. [`march_image`] then makes the frame on the GPU where
+    /// it can (render::frame).
+    pub fn image_only(&self) -> bool {
+        !self.results
+            && self.heatmap.is_none()
+            && self.aovs.is_empty()
+            && !self.transparent_background
+            && self.outputs().is_ok_and(|o| o.image == FileFormat::Png)
     }
 }
 
@@ -340,7 +358,8 @@ pub fn render_frame_indexed(ctx: &Arc<Context>, job: &RenderJob) -> Result<Frame
     let mut renderer = Renderer::for_camera(ctx, &scene, job.timeout)?;
     let options = MarchOptions::for_scene(&scene);
     let tiled = renderer.prepare_camera(job.method, &options, &scene.camera, job.width, job.height)?;
-    let (frame, march) = march_image(&mut renderer, job.method, options, &scene, (job.width, job.height), job.samples, job.effects)?;
+    let (frame, march) =
+        march_image(&mut renderer, job.method, options, &scene, (job.width, job.height), job.samples, job.effects, job.image_only())?;
     let memory = Memory::now(ctx);
     let tiles = renderer.tile_stats().filter(|_| tiled);
     let frame_ms = started.elapsed().as_secs_f64() * 1e3;
@@ -368,6 +387,12 @@ pub const SAMPLE_SEED: u32 = 1;
 /// depth and normal are its first sample's. Statistics count every
 /// camera ray; the shadow and occlusion rays are counted apart
 /// (`MarchStats::any_hit`).
+///
+/// With `image_only` (the caller reads the frame's image and statistics,
+/// not its pixels' results), a frame the GPU can make whole
+/// ([`Renderer::gpu_frame_applies`]) is made there, and only its 8-bit
+/// image read back ([`Frame::encoded`]).
+#[allow(clippy::too_many_arguments)]
 pub fn march_image(
     renderer: &mut Renderer,
     method: Method,
@@ -376,7 +401,13 @@ pub fn march_image(
     (width, height): (u32, u32),
     samples: u32,
     effects: Effects,
+    image_only: bool,
 ) -> Result<(Frame, MarchStats)> {
+    if image_only && renderer.gpu_frame_applies(&options, scene, (width, height)) {
+        renderer.prepare_camera(method, &options, &scene.camera, width, height)?;
+        let made = renderer.gpu_frame(method, options, scene, (width, height), samples, &effects)?;
+        return Ok((Frame::encoded(width, height, made.rgba), made.stats));
+    }
     let Effects { depth_cue, outline } = effects;
     let forward = (scene.camera.target - scene.camera.eye).normalize();
     let depths = DepthCue::range(&scene.bounds, &scene.camera);

@@ -1,0 +1,172 @@
+//! Frames made on the GPU (src/render/frame.rs, shaders/look.comp): the
+//! camera rays the shader makes are the host's within f32, the statistics
+//! it reduces are the host's of the same results, the images are the
+//! host path's within one 8-bit level, and a frame reads back its image
+//! and a few words in at most 3 fence waits.
+
+use std::path::Path;
+
+use crate::common::*;
+use isomarch::layout::FLAG_HIT;
+use isomarch::output::{Frame, MarchStats};
+use isomarch::render::offscreen::{Effects, SAMPLE_SEED};
+use isomarch::render::rays::{camera_rays_through, subpixel};
+use isomarch::render::{MarchOptions, Renderer};
+use isomarch::scene::{Projection, Scene};
+
+/// A scene file or a molecule with the default look, posed at time 0 and
+/// recentred as a frame is rendered.
+fn load(path: &str) -> Scene {
+    let file = repo_root().join(path);
+    let s = if path.ends_with(".ron") {
+        Scene::load(&file).unwrap()
+    } else {
+        isomarch::molecule::build::load_scene(&file, &isomarch::molecule::MoleculeOptions::default()).unwrap().0
+    };
+    s.at_time(0.0).recentred_on_camera()
+}
+
+/// Every camera ray look.comp makes (perspective and orthographic, one
+/// sample and the third of four, a frame of partial tiles) is the host's
+/// f64 ray rounded, within f32: padding rays equal, directions within
+/// 2e-6, origins and interval ends within 1e-5 of the scene's size, and
+/// misses where the host misses (but for grazing rays).
+#[test]
+fn the_shaders_camera_rays_are_the_hosts() {
+    let ctx = gpu();
+    for (path, ortho) in [("scenes/fig10.ron", false), ("tests/data/molecules/1A8O.pdb", false), ("tests/data/molecules/1A8O.pdb", true)] {
+        let mut scene = load(path);
+        if ortho {
+            scene.camera.projection = Projection::Orthographic { height: 20.0 };
+        }
+        let size = scene.bounds.diagonal();
+        let mut renderer = Renderer::new(&ctx, &scene).unwrap();
+        for (sample, samples) in [(0, 1), (2, 4)] {
+            let (w, h) = (61, 37);
+            let gpu_rays = renderer.gpu_camera_rays(&scene, (w, h), sample, samples).unwrap();
+            let (host, pixels) = camera_rays_through(&scene.camera, w, h, &scene.bounds, |p| subpixel(p, sample, samples, SAMPLE_SEED));
+            assert_eq!(gpu_rays.len(), host.len(), "{path}: ray count");
+            let mut compared = 0;
+            for (i, (g, r)) in gpu_rays.iter().zip(&host).enumerate() {
+                let what = format!("{path} (ortho {ortho}), sample {sample} of {samples}, ray {i}");
+                if pixels[i].is_none() {
+                    assert_eq!(g, r, "{what}: a padding ray");
+                    continue;
+                }
+                let d = (0..3).map(|k| (g.d[k] - r.d[k]).abs()).fold(0f32, f32::max);
+                assert!(d < 2e-6, "{what}: direction {:?} against the host's {:?}", g.d, r.d);
+                let o = (0..3).map(|k| f64::from((g.o[k] - r.o[k]).abs())).fold(0f64, f64::max);
+                assert!(o < 1e-5 * size, "{what}: origin {:?} against {:?}", g.o, r.o);
+                let host_misses = r.o[3] > r.d[3];
+                let grazing = f64::from((r.d[3] - r.o[3]).abs()) < 1e-4 * size;
+                if grazing {
+                    continue;
+                }
+                assert_eq!(g.o[3] > g.d[3], host_misses, "{what}: a miss on one side only ({g:?} against {r:?})");
+                if !host_misses {
+                    let (a, b) = (f64::from(g.o[3]), f64::from(r.o[3]));
+                    assert!((a - b).abs() < 1e-5 * size, "{what}: t0 {a} against {b}");
+                    let (a, b) = (f64::from(g.d[3]), f64::from(r.d[3]));
+                    assert!((a - b).abs() < 1e-5 * size, "{what}: t1 {a} against {b}");
+                }
+                compared += 1;
+            }
+            assert!(compared > (w * h) as usize / 2, "{path}: only {compared} rays compared");
+        }
+    }
+    assert_no_validation(&ctx);
+}
+
+/// What the GPU reduced is what the host reduces from the same results
+/// (every count, the largest step count), and its image is the host's
+/// composition of those results within one level (sRGB's power in f32 on
+/// both sides); the image is not blank.
+#[test]
+fn the_gpu_reduces_what_the_host_would() {
+    let ctx = gpu();
+    for path in ["tests/data/molecules/1A8O.pdb", "scenes/hrbf8.ron"] {
+        let scene = load(path);
+        let mut renderer = Renderer::for_camera(&ctx, &scene, std::time::Duration::from_secs(300)).unwrap();
+        let options = MarchOptions::for_scene(&scene);
+        let method = scene.marching.method;
+        let (w, h) = (72, 56);
+        assert!(renderer.gpu_frame_applies(&options, &scene, (w, h)), "{path}: the GPU frame should apply");
+        renderer.prepare_camera(method, &options, &scene.camera, w, h).unwrap();
+        let made = renderer.gpu_frame_keeping(method, options, &scene, (w, h), 1, &Effects::default(), true).unwrap();
+        let (rays, results) = made.last.unwrap();
+        let (_, pixels) = camera_rays_through(&scene.camera, w, h, &scene.bounds, |_| (0.5, 0.5));
+        let kept: Vec<_> = results.iter().zip(&pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| r).collect();
+        let host = MarchStats::of(kept.iter().copied(), None);
+        let gpu = MarchStats { gpu_ms: None, ns_per_ray: None, ns_per_eval: None, ns_per_turn: None, ..made.stats.clone() };
+        assert_eq!(gpu, host, "{path}: the GPU's statistics against the host's of the same results");
+        let hits = kept.iter().filter(|r| r.counts[3] & FLAG_HIT != 0).count();
+        assert!(hits > 100 && hits < kept.len() - 100, "{path}: {hits} hits of {}: nothing to see", kept.len());
+        // Ray i's pixel from the GPU's own rays: the same tile order.
+        assert_eq!(rays.len(), pixels.len());
+        let composed = Frame::from_results(w, h, &results, &pixels).shaded();
+        let mut off = 0;
+        for (i, p) in composed.pixels().enumerate() {
+            let g = &made.rgba[4 * i..4 * i + 3];
+            let most = p.0.iter().zip(g).map(|(a, b)| a.abs_diff(*b)).max().unwrap();
+            assert!(most <= 1, "{path}: pixel {i}: the GPU's {g:?} against the host's {:?}", p.0);
+            off += usize::from(most > 0);
+        }
+        assert!(off * 100 <= kept.len(), "{path}: {off} pixels a level off");
+    }
+    assert_no_validation(&ctx);
+}
+
+/// Decodes a PNG as RGB8.
+fn rgb(path: &Path) -> image::RgbImage {
+    image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).to_rgb8()
+}
+
+/// `render` makes these frames on the GPU: each is the host path's
+/// (`ISOMARCH_GPU_FRAME=off`) within one 8-bit level at 99.9% of its
+/// pixels and within 2 at all, has the host's statistics within the f32
+/// rays' difference, reads back at most 4 bytes a pixel and 64 KiB, and
+/// waits on at most 3 fences (the march's and look's pipelines warmed up,
+/// the frame); the host path reads back 64 bytes a ray.
+#[test]
+fn render_makes_the_hosts_image_on_the_gpu() {
+    let dir = scratch("gpu-frame");
+    let (w, h) = (80u32, 64u32);
+    let cases: [(&str, &[&str]); 6] = [
+        ("scenes/fig10.ron", &["--samples", "4"]),
+        ("scenes/default.ron", &[]),
+        ("scenes/fig10-gauss.ron", &["--ortho"]),
+        ("tests/data/molecules/1A8O.pdb", &["--depth-cue", "0.3:1", "--outline", "2"]),
+        ("tests/data/molecules/1A8O.pdb", &["--samples", "4", "--outline", "1"]),
+        ("tests/data/molecules/6WG6.cif.gz", &[]),
+    ];
+    for (k, (path, flags)) in cases.iter().enumerate() {
+        let run = |name: &str, gpu: bool| {
+            let (png, stats) = (dir.join(format!("{k}-{name}.png")), dir.join(format!("{k}-{name}.json")));
+            let mut cmd = isomarch(["render", path, "--size", &format!("{w}x{h}")]).args(flags.iter()).arg("-o").arg(&png).arg("--stats").arg(&stats);
+            if !gpu {
+                cmd = cmd.env("ISOMARCH_GPU_FRAME", "off");
+            }
+            cmd.ok();
+            (rgb(&png), json(&stats))
+        };
+        let ((g, gs), (c, cs)) = (run("gpu", true), run("host", false));
+        let what = format!("{path} {}", flags.join(" "));
+        let mut off = 0;
+        for (p, q) in g.pixels().zip(c.pixels()) {
+            let most = p.0.iter().zip(q.0).map(|(a, b)| a.abs_diff(b)).max().unwrap();
+            assert!(most <= 2, "{what}: a pixel {most} levels off ({:?} against {:?})", p.0, q.0);
+            off += usize::from(most > 1);
+        }
+        assert!(off * 1000 <= (w * h) as usize, "{what}: {off} pixels more than a level off");
+        let lit = g.pixels().filter(|p| p.0 != g.get_pixel(0, 0).0).count();
+        assert!(lit > (w * h) as usize / 20, "{what}: {lit} pixels differ from the corner's: a blank image");
+        let f = |j: &serde_json::Value, key: &str| j[key].as_f64().unwrap_or_else(|| panic!("{what}: no {key} in --stats"));
+        assert!((f(&gs, "hit_rate") - f(&cs, "hit_rate")).abs() <= 0.002, "{what}: hit rates {} and {}", f(&gs, "hit_rate"), f(&cs, "hit_rate"));
+        assert!((f(&gs, "steps_per_ray") / f(&cs, "steps_per_ray") - 1.0).abs() <= 0.002, "{what}: steps per ray");
+        assert_eq!(f(&gs, "rays"), f(&cs, "rays"), "{what}: rays counted");
+        let limit = f64::from(4 * w * h + 65_536);
+        assert!(f(&gs, "readback_bytes") <= limit, "{what}: {} bytes read back, more than {limit}", f(&gs, "readback_bytes"));
+        assert!(f(&cs, "readback_bytes") >= f64::from(64 * w * h), "{what}: the host path read back less than its rays' results");
+        assert!(f(&gs, "submits") <= 3.0, "{what}: {} fence waits", f(&gs, "submits"));
+    }
+}
