@@ -160,10 +160,19 @@ gpu_structs! {
     /// transparent one; `outline.rgb` the outlines' colour, `outline.w`
     /// the depth jump they follow; `dims`: width, height, tiles per row,
     /// samples per pixel; `flags`: x 1 with depth cueing, y the outlines'
-    /// width (0: none), z the sub-pixel samples' seed.
+    /// width (0: none), z the sub-pixel samples' seed. Shadows and ambient
+    /// occlusion (render::light): `ambient.rgb` the scene's ambient light;
+    /// `reach`: x how far off the surface their rays start, y the
+    /// occlusion rays' length; `lighting`: x the lights, y 1 with shadows,
+    /// z occlusion rays per hit. The camera's rays are made in f64, as
+    /// the host makes them: each `*64` pair holds a vector's x and y, then
+    /// its z and one more number (`eye64_z`: half the image plane's width;
+    /// `right64_z`: half its height), as f64 bits, low word first.
     struct GpuLook {
         eye: Vec4, right: Vec4, up: Vec4, forward: Vec4, box_min: Vec4, box_max: Vec4, background: Vec4, outline: Vec4,
-        dims: UVec4, flags: UVec4,
+        dims: UVec4, flags: UVec4, ambient: Vec4, reach: Vec4, lighting: UVec4,
+        eye64: UVec4, eye64_z: UVec4, right64: UVec4, right64_z: UVec4, up64: UVec4, up64_z: UVec4, forward64: UVec4, forward64_z: UVec4,
+        min64: UVec4, min64_z: UVec4, max64: UVec4, max64_z: UVec4,
     }
 }
 
@@ -364,6 +373,10 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("LOOK_PASS_ACCUMULATE", LOOK_PASS_ACCUMULATE),
     ("LOOK_PASS_FINISH", LOOK_PASS_FINISH),
     ("LOOK_PASS_GATE", LOOK_PASS_GATE),
+    ("LOOK_PASS_SURFACE", LOOK_PASS_SURFACE),
+    ("LOOK_PASS_SPAWN", LOOK_PASS_SPAWN),
+    ("LOOK_PASS_OCCLUDE", LOOK_PASS_OCCLUDE),
+    ("LOOK_PASS_CONSTANT", LOOK_PASS_CONSTANT),
     ("LOOK_STAT_RAYS", LOOK_STAT_RAYS),
     ("LOOK_STAT_HITS", LOOK_STAT_HITS),
     ("LOOK_STAT_OUT_OF_STEPS", LOOK_STAT_OUT_OF_STEPS),
@@ -374,6 +387,10 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("LOOK_STAT_VISITS", LOOK_STAT_VISITS),
     ("LOOK_STAT_TURNS", LOOK_STAT_TURNS),
     ("LOOK_STAT_UNFINISHED", LOOK_STAT_UNFINISHED),
+    ("LOOK_STAT_SHADOW_RAYS", LOOK_STAT_SHADOW_RAYS),
+    ("LOOK_STAT_SHADOW_STEPS", LOOK_STAT_SHADOW_STEPS),
+    ("LOOK_STAT_AO_RAYS", LOOK_STAT_AO_RAYS),
+    ("LOOK_STAT_AO_STEPS", LOOK_STAT_AO_STEPS),
     ("LOOK_STAT_WORDS", LOOK_STAT_WORDS),
     ("REFINE_SECANT", REFINE_SECANT),
     ("REFINE_BISECTION", REFINE_BISECTION),
@@ -585,6 +602,22 @@ pub const LOOK_BINDINGS: &[Binding] = &[
         doc: &["The next slice's workgroups (an indirect dispatch's x, y, z)."],
         ..buffer(8, Access::ReadWrite, "IndirectBuffer", "uint next_groups[]")
     },
+    Binding { doc: &["The scene's lights (binding 2 of the march)."], ..buffer(9, Access::ReadOnly, "LightBuffer", "GpuLight lights[]") },
+    Binding {
+        doc: &[
+            "Per camera ray, kept while its shadow and occlusion rays march: x 1 for a",
+            "shaded hit, y its unlit colour (packed as the march packs it).",
+        ],
+        ..buffer(10, Access::ReadWrite, "SurfaceBuffer", "uvec4 surfaces[]")
+    },
+    Binding {
+        doc: &["Per camera ray: the light its shadows take away (rgb) and its occlusion rays", "that hit (w)."],
+        ..buffer(11, Access::ReadWrite, "ShadowBuffer", "vec4 shadows[]")
+    },
+    Binding {
+        doc: &["The camera rays of the sample being made, kept while shadow and occlusion", "rays take their place in `rays`."],
+        ..buffer(12, Access::ReadWrite, "CameraRayBuffer", "GpuRay camera_rays[]")
+    },
 ];
 
 /// look.comp's passes (its push constant `pass`).
@@ -593,6 +626,13 @@ pub const LOOK_PASS_SAMPLE: u32 = 1;
 pub const LOOK_PASS_ACCUMULATE: u32 = 2;
 pub const LOOK_PASS_FINISH: u32 = 3;
 pub const LOOK_PASS_GATE: u32 = 4;
+pub const LOOK_PASS_SURFACE: u32 = 5;
+pub const LOOK_PASS_SPAWN: u32 = 6;
+pub const LOOK_PASS_OCCLUDE: u32 = 7;
+/// look.comp's passes, each a pipeline of its own.
+pub const LOOK_PASSES: u32 = 8;
+/// The specialization constant that picks look.comp's pass (`LOOK_PASS`).
+pub const LOOK_PASS_CONSTANT: u32 = 20;
 
 /// look.comp's statistics, by word: counts, then 64-bit sums (two words).
 pub const LOOK_STAT_RAYS: u32 = 0;
@@ -606,7 +646,12 @@ pub const LOOK_STAT_VISITS: u32 = 10;
 pub const LOOK_STAT_TURNS: u32 = 12;
 /// Set when a sample's recorded slices ended with rays still marching.
 pub const LOOK_STAT_UNFINISHED: u32 = 14;
-pub const LOOK_STAT_WORDS: u32 = 15;
+/// Shadow and occlusion rays cast, and their steps (64-bit sums).
+pub const LOOK_STAT_SHADOW_RAYS: u32 = 15;
+pub const LOOK_STAT_SHADOW_STEPS: u32 = 16;
+pub const LOOK_STAT_AO_RAYS: u32 = 18;
+pub const LOOK_STAT_AO_STEPS: u32 = 19;
+pub const LOOK_STAT_WORDS: u32 = 21;
 
 /// The GLSL declaration of `block` at binding `index`.
 fn glsl_block(index: u32, block: &Block) -> String {

@@ -28,9 +28,10 @@ fn load(path: &str) -> Scene {
 
 /// Every camera ray look.comp makes (perspective and orthographic, one
 /// sample and the third of four, a frame of partial tiles) is the host's
-/// f64 ray rounded, within f32: padding rays equal, directions within
-/// 2e-6, origins and interval ends within 1e-5 of the scene's size, and
-/// misses where the host misses (but for grazing rays).
+/// f64 ray rounded to f32, bit for bit: look.comp makes it in f64 in the
+/// host's order of operations (lavapipe rounds f64 as IEEE asks; a device
+/// whose f64 division or square root is less exact could differ in a last
+/// bit).
 #[test]
 fn the_shaders_camera_rays_are_the_hosts() {
     let ctx = gpu();
@@ -39,7 +40,6 @@ fn the_shaders_camera_rays_are_the_hosts() {
         if ortho {
             scene.camera.projection = Projection::Orthographic { height: 20.0 };
         }
-        let size = scene.bounds.diagonal();
         let mut renderer = Renderer::new(&ctx, &scene).unwrap();
         for (sample, samples) in [(0, 1), (2, 4)] {
             let (w, h) = (61, 37);
@@ -48,30 +48,12 @@ fn the_shaders_camera_rays_are_the_hosts() {
             assert_eq!(gpu_rays.len(), host.len(), "{path}: ray count");
             let mut compared = 0;
             for (i, (g, r)) in gpu_rays.iter().zip(&host).enumerate() {
-                let what = format!("{path} (ortho {ortho}), sample {sample} of {samples}, ray {i}");
-                if pixels[i].is_none() {
-                    assert_eq!(g, r, "{what}: a padding ray");
-                    continue;
-                }
-                let d = (0..3).map(|k| (g.d[k] - r.d[k]).abs()).fold(0f32, f32::max);
-                assert!(d < 2e-6, "{what}: direction {:?} against the host's {:?}", g.d, r.d);
-                let o = (0..3).map(|k| f64::from((g.o[k] - r.o[k]).abs())).fold(0f64, f64::max);
-                assert!(o < 1e-5 * size, "{what}: origin {:?} against {:?}", g.o, r.o);
-                let host_misses = r.o[3] > r.d[3];
-                let grazing = f64::from((r.d[3] - r.o[3]).abs()) < 1e-4 * size;
-                if grazing {
-                    continue;
-                }
-                assert_eq!(g.o[3] > g.d[3], host_misses, "{what}: a miss on one side only ({g:?} against {r:?})");
-                if !host_misses {
-                    let (a, b) = (f64::from(g.o[3]), f64::from(r.o[3]));
-                    assert!((a - b).abs() < 1e-5 * size, "{what}: t0 {a} against {b}");
-                    let (a, b) = (f64::from(g.d[3]), f64::from(r.d[3]));
-                    assert!((a - b).abs() < 1e-5 * size, "{what}: t1 {a} against {b}");
-                }
-                compared += 1;
+                let what = format!("{path} (ortho {ortho}), sample {sample} of {samples}, ray {i} (pixel {:?})", pixels[i]);
+                let bits = |v: &[f32; 4]| v.map(f32::to_bits);
+                assert!(bits(&g.o) == bits(&r.o) && bits(&g.d) == bits(&r.d), "{what}: {g:?} against the host's {r:?}");
+                compared += usize::from(pixels[i].is_some() && r.o[3] <= r.d[3]);
             }
-            assert!(compared > (w * h) as usize / 2, "{path}: only {compared} rays compared");
+            assert!(compared > (w * h) as usize / 4, "{path}: only {compared} rays meet the box: a test of nothing");
         }
     }
     assert_no_validation(&ctx);
@@ -121,23 +103,27 @@ fn rgb(path: &Path) -> image::RgbImage {
     image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).to_rgb8()
 }
 
-/// `render` makes these frames on the GPU: each is the host path's
-/// (`ISOMARCH_GPU_FRAME=off`) within one 8-bit level at 99.9% of its
-/// pixels and within 2 at all, has the host's statistics within the f32
-/// rays' difference, reads back at most 4 bytes a pixel and 64 KiB, and
-/// waits on at most 3 fences (the march's and look's pipelines warmed up,
-/// the frame); the host path reads back 64 bytes a ray.
+/// `render` makes these frames on the GPU, shadows and occlusion included:
+/// each is the host path's (`ISOMARCH_GPU_FRAME=off`) within one 8-bit
+/// level at 99.9% of its pixels and within 2 at all, has the host's
+/// statistics (the same camera rays; hit rate within 0.002, steps within
+/// 0.2%), casts the same shadow and occlusion rays, reads back at most 4
+/// bytes a pixel and 64 KiB, and waits on at most 3 fences (the pipelines
+/// warmed up together, the index's build where the frame needs it, the
+/// frame); the host path reads back 64 bytes a ray.
 #[test]
 fn render_makes_the_hosts_image_on_the_gpu() {
     let dir = scratch("gpu-frame");
     let (w, h) = (80u32, 64u32);
-    let cases: [(&str, &[&str]); 6] = [
+    let cases: [(&str, &[&str]); 8] = [
         ("scenes/fig10.ron", &["--samples", "4"]),
         ("scenes/default.ron", &[]),
-        ("scenes/fig10-gauss.ron", &["--ortho"]),
+        ("scenes/fig10-gauss.ron", &["--ortho", "--ao", "4"]),
+        ("scenes/hrbf8.ron", &["--shadows"]),
         ("tests/data/molecules/1A8O.pdb", &["--depth-cue", "0.3:1", "--outline", "2"]),
-        ("tests/data/molecules/1A8O.pdb", &["--samples", "4", "--outline", "1"]),
-        ("tests/data/molecules/6WG6.cif.gz", &[]),
+        ("tests/data/molecules/1A8O.pdb", &["--samples", "2", "--outline", "1", "--shadows", "--ao", "4"]),
+        ("tests/data/molecules/1A8O.pdb", &["--ortho", "--shadows"]),
+        ("tests/data/molecules/6WG6.cif.gz", &["--shadows", "--ao", "8"]),
     ];
     for (k, (path, flags)) in cases.iter().enumerate() {
         let run = |name: &str, gpu: bool| {
@@ -168,5 +154,16 @@ fn render_makes_the_hosts_image_on_the_gpu() {
         assert!(f(&gs, "readback_bytes") <= limit, "{what}: {} bytes read back, more than {limit}", f(&gs, "readback_bytes"));
         assert!(f(&cs, "readback_bytes") >= f64::from(64 * w * h), "{what}: the host path read back less than its rays' results");
         assert!(f(&gs, "submits") <= 3.0, "{what}: {} fence waits", f(&gs, "submits"));
+        // The same shadow and occlusion rays cast, from the same hits.
+        for key in ["shadow_rays", "ao_rays"] {
+            assert_eq!(gs["any_hit"][key], cs["any_hit"][key], "{what}: {key}");
+        }
+        if flags.contains(&"--shadows") {
+            assert!(f(&gs["any_hit"], "shadow_rays") > 1000.0, "{what}: no shadow rays");
+        }
+        if flags.contains(&"--ao") {
+            let (a, b) = (f(&gs["any_hit"], "ao_steps_per_ray"), f(&cs["any_hit"], "ao_steps_per_ray"));
+            assert!((a / b - 1.0).abs() < 1e-3, "{what}: occlusion steps per ray {a} against {b}");
+        }
     }
 }

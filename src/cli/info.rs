@@ -12,6 +12,8 @@ pub fn run() -> Result<()> {
         println!("    max workgroup invocations: {}", d.max_compute_workgroup_invocations);
         println!("    max workgroup count:      {:?}", d.max_compute_workgroup_count);
         println!("    timestamps:               {} ({} ns/tick)", d.timestamps, d.timestamp_period_ns);
+        println!("    64-bit floats in shaders: {}", d.float64);
+        println!("    subgroup arithmetic:      {}", d.subgroup_arithmetic);
         println!("    memory heaps:             {:?} MiB", d.memory_heaps_mib);
     }
     Ok(())

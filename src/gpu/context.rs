@@ -41,6 +41,13 @@ pub struct DeviceInfo {
     pub max_compute_workgroup_count: [u32; 3],
     pub timestamp_period_ns: f32,
     pub timestamps: bool,
+    /// 64-bit floats in shaders (shaderFloat64), enabled where the device
+    /// has them: camera rays made on the GPU in the host's f64 arithmetic
+    /// (render::frame).
+    pub float64: bool,
+    /// Subgroup sums in compute shaders (the frame's statistics summed on
+    /// the GPU, render::frame).
+    pub subgroup_arithmetic: bool,
     pub memory_heaps_mib: Vec<u64>,
 }
 
@@ -110,11 +117,12 @@ unsafe extern "system" fn debug_callback(
 
 fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice, index: usize) -> DeviceInfo {
     // SAFETY: `pd` was enumerated from `instance`.
-    let (props, mem, families) = unsafe {
+    let (props, mem, families, features) = unsafe {
         (
             instance.get_physical_device_properties(pd),
             instance.get_physical_device_memory_properties(pd),
             instance.get_physical_device_queue_family_properties(pd),
+            instance.get_physical_device_features(pd),
         )
     };
     let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
@@ -134,6 +142,15 @@ fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice, index: usize) -> D
         max_compute_workgroup_count: props.limits.max_compute_work_group_count,
         timestamp_period_ns: props.limits.timestamp_period,
         timestamps,
+        float64: features.shader_float64 == vk::TRUE,
+        subgroup_arithmetic: {
+            let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+            let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut subgroup);
+            // SAFETY: `pd` was enumerated from `instance`, a Vulkan 1.2 one.
+            unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+            subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+                && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::ARITHMETIC | vk::SubgroupFeatureFlags::BASIC)
+        },
         memory_heaps_mib: heaps,
     }
 }
@@ -249,7 +266,9 @@ impl Context {
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
         let device_extensions = if options.present.is_some() { vec![ash::khr::swapchain::NAME.as_ptr()] } else { vec![] };
-        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info).enabled_extension_names(&device_extensions);
+        let features = vk::PhysicalDeviceFeatures::default().shader_float64(info.float64);
+        let device_info =
+            vk::DeviceCreateInfo::default().queue_create_infos(&queue_info).enabled_extension_names(&device_extensions).enabled_features(&features);
         // SAFETY: valid physical device and create info.
         let device = unsafe { instance.create_device(physical_device, &device_info, None) }
             .with_context(|| format!("creating a logical device on {}", info.name))?;

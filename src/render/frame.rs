@@ -1,20 +1,31 @@
-//! Frames made on the GPU: the camera's rays, the march, the look of each
-//! sample, their mean and the 8-bit image, and the march's statistics,
-//! recorded into one submission with one fence, so that the host reads
-//! back 4 bytes a pixel and a few words (shaders/look.comp).
+//! Frames made on the GPU: the camera's rays, the march, shadows and
+//! ambient occlusion, the look of each sample, their mean and the 8-bit
+//! image, and the statistics, recorded into one submission with one fence,
+//! so that the host reads back 4 bytes a pixel and a few words
+//! (shaders/look.comp).
+//!
+//! The camera's rays are made in f64 as the host makes them
+//! (`camera_rays_through`), so they are the host's bit for bit where the
+//! device rounds f64 as IEEE asks (lavapipe does); the shadow and occlusion
+//! rays are spawned from the march's results as `render::light::spawn`
+//! spawns them, the shadow rays in f64 too, and marched batch by batch (a
+//! light, or an occlusion sample, for every hit at once) in the same
+//! submission, reusing the march's buffers: what the camera rays' results
+//! are still needed for is kept aside first (`LOOK_PASS_SURFACE`).
 //!
 //! The march's slices are recorded back to back without a flag read in
 //! between: after each slice a one-invocation gate writes the next
 //! slice's workgroup count for an indirect dispatch, none once every ray
 //! is done, so the slices a frame does not need cost a dispatch of
-//! nothing. A sample's recorded slices start at [`FIRST_SLICES`]; a frame
-//! whose rays are still marching after them is made again with every slice
-//! the step budget allows (a second fence, rare).
+//! nothing. A march records slices for [`FIRST_TURNS`] loop turns, or as
+//! many as the renderer's last frame needed; a frame whose rays are still marching
+//! after them (the last gate raises a flag) is made again with four times
+//! as many, up to what the step budget allows (a second fence, rare).
 //!
 //! The host's path ([`crate::render::offscreen::march_image`]) stays for
-//! what this one does not make yet: shadows and occlusion, transparency,
-//! reflection and refraction, clipping planes, and every caller that reads
-//! each ray's result (AOVs, heatmaps, Python's arrays).
+//! what this one does not make yet: transparency, reflection and
+//! refraction, clipping planes, a transparent background, and every caller
+//! that reads each ray's result (AOVs, heatmaps, Python's arrays).
 
 use std::time::Instant;
 
@@ -34,40 +45,86 @@ use crate::scene::{Projection, Scene};
 /// the last sample's rays and results where kept, the GPU time.
 type FrameRead = (Vec<u32>, Vec<u32>, Option<(Vec<GpuRay>, Vec<GpuResult>)>, Option<f64>);
 
-/// Slices recorded per sample in a frame's first submission.
-const FIRST_SLICES: u64 = 16;
+/// One march of a frame: its pipeline, the turns of a slice, the slices
+/// recorded and the most the step budget allows.
+#[derive(Clone, Copy)]
+struct Marcher {
+    handles: (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet),
+    slice_steps: u32,
+    slices: u64,
+    most: u64,
+}
 
-/// look.comp's pipeline and the buffers it alone uses, sized for a frame.
+/// What a frame's submission records.
+#[derive(Clone, Copy)]
+struct FramePlan {
+    camera: Marcher,
+    /// The shadow and occlusion rays' march, where the scene casts them,
+    /// in `batches` batches a sample.
+    any_hit: Option<Marcher>,
+    batches: u32,
+    rays: usize,
+    pixels: usize,
+    samples: u32,
+    /// Read the last sample's rays and results back too (tests).
+    keep: bool,
+}
+
+/// Loop turns a march's slices cover in a renderer's first frame (and one
+/// slice more). On lavapipe a recorded slice costs two dispatches even
+/// when the gate lets no workgroup run; camera rays through the tile lists
+/// mostly end in their first slice, shadow and occlusion rays through the
+/// grid (shorter slices) in a few.
+const FIRST_TURNS: u64 = 256;
+
+/// look.comp's pipelines, one per pass (`LOOK_PASS_*`, specialised:
+/// lavapipe runs every branch a shader holds, taken or not, so one
+/// pipeline of all the passes cost each pass all their work), and the
+/// buffers they alone use, sized for a frame.
 pub(super) struct LookPass {
-    pipeline: ComputePipeline,
+    pipelines: Vec<ComputePipeline>,
     look: Buffer,
     samples: Buffer,
     accum: Buffer,
     image: Buffer,
     stats: Buffer,
     indirect: Buffer,
+    surfaces: Buffer,
+    shadows: Buffer,
+    camera_rays: Buffer,
     pixels: u64,
+    rays: u64,
 }
 
 impl LookPass {
-    fn new(ctx: &std::sync::Arc<Context>, pixels: u64) -> Result<LookPass> {
+    fn new(ctx: &std::sync::Arc<Context>, rays: u64, pixels: u64) -> Result<LookPass> {
         let spirv = isomarch_shaders::Kernel::Look.spirv().map_err(anyhow::Error::msg)?;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         Ok(LookPass {
-            pipeline: ComputePipeline::new(ctx, spirv, layout::LOOK_BINDINGS, 16, &[])?,
+            pipelines: (0..layout::LOOK_PASSES)
+                .map(|pass| ComputePipeline::new(ctx, spirv, layout::LOOK_BINDINGS, 16, &[(layout::LOOK_PASS_CONSTANT, pass)]))
+                .collect::<Result<_>>()?,
             look: Buffer::uniform(ctx, "look", &[GpuLook::default()])?,
             samples: Buffer::device(ctx, "sample pixels", 16 * pixels)?,
             accum: Buffer::device(ctx, "sample sums", 16 * pixels)?,
             image: Buffer::device(ctx, "image", 4 * pixels)?,
             stats: Buffer::device(ctx, "frame statistics", 4 * u64::from(layout::LOOK_STAT_WORDS))?,
             indirect: Buffer::with_usage(ctx, "next slice", 16, storage | vk::BufferUsageFlags::INDIRECT_BUFFER, Role::Device)?,
+            surfaces: Buffer::device(ctx, "hit surfaces", 16 * rays)?,
+            shadows: Buffer::device(ctx, "shadows and occlusion", 16 * rays)?,
+            camera_rays: Buffer::device(ctx, "camera rays", 32 * rays)?,
             pixels,
+            rays,
         })
     }
 
-    /// Binds look.comp's buffers and the march's rays, results and counter.
-    pub(super) fn bind(&self, rays: &Buffer, results: &Buffer, active: &Buffer) -> Result<()> {
-        self.pipeline.bind(&[&self.look, rays, results, &self.samples, &self.accum, &self.image, &self.stats, active, &self.indirect])
+    /// Binds look.comp's buffers and the march's rays, results, counter
+    /// and lights.
+    pub(super) fn bind(&self, rays: &Buffer, results: &Buffer, active: &Buffer, lights: &Buffer) -> Result<()> {
+        let own = [&self.look, rays, results, &self.samples, &self.accum, &self.image, &self.stats, active, &self.indirect];
+        let lit = [lights, &self.surfaces, &self.shadows, &self.camera_rays];
+        let buffers: Vec<&Buffer> = own.into_iter().chain(lit).collect();
+        self.pipelines.iter().try_for_each(|p| p.bind(&buffers))
     }
 }
 
@@ -112,7 +169,29 @@ fn look_of(scene: &Scene, (width, height): (u32, u32), samples: u32, effects: &E
         outline: [outline_color[0] as f32, outline_color[1] as f32, outline_color[2] as f32, threshold as f32],
         dims: [width, height, width.div_ceil(PIXEL_TILE), samples.max(1)],
         flags: [u32::from(effects.depth_cue.is_some()), outline_width, SAMPLE_SEED, 0],
+        ambient: v(scene.ambient, 0.0),
+        reach: [light::start_offset(scene) as f32, scene.ao.map_or(0.0, |a| a.distance) as f32, 0.0, 0.0],
+        lighting: [scene.lights.len() as u32, u32::from(scene.shadows), scene.ao.map_or(0, |a| a.samples), 0],
+        eye64: bits(cam.eye.x, cam.eye.y),
+        eye64_z: bits(cam.eye.z, half_w),
+        right64: bits(right.x, right.y),
+        right64_z: bits(right.z, half_h),
+        up64: bits(up.x, up.y),
+        up64_z: bits(up.z, 0.0),
+        forward64: bits(forward.x, forward.y),
+        forward64_z: bits(forward.z, 0.0),
+        min64: bits(scene.bounds.min.x, scene.bounds.min.y),
+        min64_z: bits(scene.bounds.min.z, light::start_offset(scene)),
+        max64: bits(scene.bounds.max.x, scene.bounds.max.y),
+        max64_z: bits(scene.bounds.max.z, 0.0),
     }
+}
+
+/// Two f64 as the shader reads them (`packDouble2x32`): each as its low
+/// word, then its high.
+fn bits(a: f64, b: f64) -> [u32; 4] {
+    let (a, b) = (a.to_bits(), b.to_bits());
+    [a as u32, (a >> 32) as u32, b as u32, (b >> 32) as u32]
 }
 
 /// The statistics look.comp reduced ([`layout::LOOK_STAT_WORDS`] words).
@@ -135,7 +214,15 @@ fn stats_of(words: &[u32], gpu_ns: Option<f64>) -> MarchStats {
         visits_per_ray: wide(layout::LOOK_STAT_VISITS) as f64 / n,
         ns_per_eval: gpu_ns.filter(|_| evals > 0).map(|ns| ns / evals as f64),
         ns_per_turn: gpu_ns.filter(|_| turns > 0).map(|ns| ns / turns as f64),
-        any_hit: None,
+        // Their GPU time is in the frame's, not apart.
+        any_hit: light::LightStats {
+            shadow_rays: u64::from(words[layout::LOOK_STAT_SHADOW_RAYS as usize]),
+            shadow_steps: wide(layout::LOOK_STAT_SHADOW_STEPS),
+            ao_rays: u64::from(words[layout::LOOK_STAT_AO_RAYS as usize]),
+            ao_steps: wide(layout::LOOK_STAT_AO_STEPS),
+            gpu_ns: None,
+        }
+        .summary(),
     }
 }
 
@@ -145,7 +232,9 @@ pub const GPU_FRAME_SWITCH: &str = "ISOMARCH_GPU_FRAME";
 
 impl Renderer {
     /// Whether [`Renderer::gpu_frame`] makes this frame: opaque, without
-    /// shadows, occlusion or clipping planes, every ray in one dispatch.
+    /// clipping planes, every ray in one dispatch, on a device with 64-bit
+    /// floats in shaders (the camera rays are made in f64) and subgroup
+    /// sums (the statistics).
     pub fn gpu_frame_applies(&self, options: &MarchOptions, scene: &Scene, (width, height): (u32, u32)) -> bool {
         let rays = u64::from(width.div_ceil(PIXEL_TILE) * height.div_ceil(PIXEL_TILE)) * u64::from(PIXEL_TILE * PIXEL_TILE);
         options.shade
@@ -153,8 +242,9 @@ impl Renderer {
             && !options.any_hit
             && !options.secondary
             && scene.transparency.is_none()
-            && !light::wanted(scene, options)
             && scene.camera.clip.is_empty()
+            && self.ctx.info.float64
+            && self.ctx.info.subgroup_arithmetic
             && rays / WORKGROUP as u64 <= u64::from(self.ctx.info.max_compute_workgroup_count[0])
             && rays * size_of::<GpuMarchState>() as u64 <= self.ctx.info.max_storage_buffer_range
             && super::env_switch(GPU_FRAME_SWITCH).unwrap_or(true)
@@ -199,23 +289,61 @@ impl Renderer {
         look.look.write(0, &[look_of(scene, (width, height), samples, effects)])?;
         let through = self.tiles.as_ref().is_some_and(|t| t.frame.is_some()) && self.tiles_apply(method, &options);
         let deadline = Instant::now() + self.timeout;
-        let (march, slice_steps, max_slices) = self.march_setup(method, &options, through)?;
-        let mut slices = FIRST_SLICES.min(max_slices);
+        let lit = light::wanted(scene, &options);
+        if lit {
+            light::check_method(scene, method)?;
+        }
+        // Both pipelines before the index's build, which warms them up
+        // with look.comp's.
+        let any_hit_options = light::any_hit_options(options);
+        self.pipeline(super::EntryPoint::March, method, &options, through)?;
+        if lit {
+            self.pipeline(super::EntryPoint::March, method, &any_hit_options, false)?;
+        }
+        let camera = self.march_setup(method, &options, through)?;
+        let any_hit = if lit { Some(self.march_setup(method, &any_hit_options, false)?) } else { None };
+        // What the shadow and occlusion rays answer for: a light each, then
+        // each occlusion sample.
+        let batches = if lit { scene.lights.len() as u32 + scene.ao.map_or(0, |a| a.samples) } else { 0 };
+        // Slices for FIRST_TURNS turns, or as many as the last frame needed.
+        let mut k = 0;
+        let mut marchers = [camera, any_hit.unwrap_or(camera)].map(|(handles, slice_steps, most)| {
+            let from = (FIRST_TURNS.div_ceil(u64::from(slice_steps)) + 1).max(self.frame_slices[k]);
+            k += 1;
+            Marcher { handles, slice_steps, slices: from.min(most), most }
+        });
         loop {
-            let (image, words, last, gpu_ns) =
-                self.record_frame(march, slice_steps, slices, (rays, pixels as usize), samples.max(1), deadline, keep)?;
+            let plan = FramePlan {
+                camera: marchers[0],
+                any_hit: any_hit.map(|_| marchers[1]),
+                batches,
+                rays,
+                pixels: pixels as usize,
+                samples: samples.max(1),
+                keep,
+            };
+            let (image, words, last, gpu_ns) = self.record_frame(&plan, deadline)?;
             if words[layout::LOOK_STAT_UNFINISHED as usize] == 0 {
+                self.frame_slices = marchers.map(|m| m.slices);
                 return Ok(GpuFrame { rgba: bytemuck::cast_slice(&image).to_vec(), stats: stats_of(&words, gpu_ns), last });
             }
-            if slices >= max_slices {
-                bail!("rays still marching after {slices} slices of {slice_steps} turns: a marcher ignores its step budget");
+            if marchers.iter().all(|m| m.slices >= m.most) {
+                bail!(
+                    "rays still marching after {} slices of {} turns: a marcher ignores its step budget",
+                    marchers[0].slices,
+                    marchers[0].slice_steps
+                );
             }
-            slices = max_slices;
+            // Made again with four times the slices (rare: a frame's rays
+            // mostly end in their first slice).
+            for m in &mut marchers {
+                m.slices = (4 * m.slices).min(m.most);
+            }
         }
     }
 
     /// Rays, results and states for `rays` rays, and look.comp's buffers for
-    /// `pixels` pixels.
+    /// `rays` rays and `pixels` pixels.
     fn ensure_frame_buffers(&mut self, rays: usize, pixels: u64) -> Result<()> {
         let mut rebind = false;
         if self.rays.size < (rays * size_of::<GpuRay>()) as u64 {
@@ -225,40 +353,37 @@ impl Renderer {
             self.states = Buffer::device(&self.ctx, "march states", (n * size_of::<GpuMarchState>()) as u64)?;
             rebind = true;
         }
-        let fresh = self.look.as_ref().is_none_or(|l| l.pixels < pixels);
-        let started = Instant::now();
+        let fresh = self.look.as_ref().is_none_or(|l| l.pixels < pixels || l.rays < rays as u64);
         if fresh {
-            self.look = Some(LookPass::new(&self.ctx, pixels.next_power_of_two())?);
+            let started = Instant::now();
+            if let Some(old) = self.look.take() {
+                // Not warmed up yet, it is no more.
+                self.cold.retain(|((p, _, _), _)| !old.pipelines.iter().any(|o| o.pipeline == *p));
+            }
+            let look = LookPass::new(&self.ctx, (rays as u64).next_power_of_two(), pixels.next_power_of_two())?;
+            // lavapipe compiles a pipeline at its first dispatch: outside
+            // the frame's GPU time, as the march's are. A pass of no
+            // invocation touches nothing.
+            for p in &look.pipelines {
+                self.warm_up_with((p.pipeline, p.layout, p.set), [0, 0, 0, 0])?;
+            }
+            self.look = Some(look);
+            self.pipeline_ns += started.elapsed().as_secs_f64() * 1e9;
             rebind = true;
         }
         if rebind {
             self.rebind()?;
         }
-        if fresh {
-            // lavapipe compiles a pipeline at its first dispatch: outside
-            // the frame's GPU time, as the march's are. The finish pass of
-            // no pixels touches nothing.
-            let p = &self.look.as_ref().expect("made above").pipeline;
-            self.warm_up_with((p.pipeline, p.layout, p.set), [layout::LOOK_PASS_FINISH, 0, 0, 0])?;
-            self.pipeline_ns += started.elapsed().as_secs_f64() * 1e9;
-        }
         Ok(())
     }
 
-    #[allow(clippy::too_many_arguments)]
-    /// One submission: every sample's rays made, marched in `slices`
-    /// gated slices and looked at, then the image finished and read back
-    /// with the statistics.
-    fn record_frame(
-        &mut self,
-        (pipeline, layout, set): (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet),
-        slice_steps: u32,
-        slices: u64,
-        (rays, pixels): (usize, usize),
-        samples: u32,
-        deadline: Instant,
-        keep: bool,
-    ) -> Result<FrameRead> {
+    /// One submission: every sample's rays made, marched in gated slices,
+    /// their shadow and occlusion rays spawned and marched batch by batch,
+    /// the sample looked at; then the image finished and read back with
+    /// the statistics.
+    fn record_frame(&mut self, plan: &FramePlan, deadline: Instant) -> Result<FrameRead> {
+        self.warm_cold()?;
+        let FramePlan { camera, any_hit, batches, rays, pixels, samples, keep } = *plan;
         let look = self.look.as_ref().expect("made by ensure_frame_buffers");
         let image = self.transfers.fetch::<u32>(&look.image, 0, pixels)?;
         let words = self.transfers.fetch::<u32>(&look.stats, 0, layout::LOOK_STAT_WORDS as usize)?;
@@ -267,7 +392,7 @@ impl Renderer {
         } else {
             None
         };
-        let (lp, ll, ls) = (look.pipeline.pipeline, look.pipeline.layout, look.pipeline.set);
+        let passes: Vec<_> = look.pipelines.iter().map(|p| (p.pipeline, p.layout, p.set)).collect();
         let (stats, active, indirect) = (look.stats.handle, self.active.handle, look.indirect.handle);
         let groups = |n: usize| n.div_ceil(WORKGROUP) as u32;
         let n_rays = rays as u32;
@@ -285,32 +410,44 @@ impl Renderer {
             };
             let shader = (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE);
             // `count` invocations, but the gate's one (its count is the rays').
-            let look_pass = |pass: u32, sample: u32, count: u32| {
+            let look_pass = |pass: u32, sample: u32, count: u32, batch: u32| {
                 let invocations = if pass == layout::LOOK_PASS_GATE { 1 } else { count as usize };
-                // SAFETY: look.comp's pipeline, bound to live buffers.
+                let (pipeline, layout, set) = passes[pass as usize];
+                // SAFETY: look.comp's pipeline for `pass`, bound to live
+                // buffers.
                 unsafe {
-                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, lp);
-                    d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, ll, 0, &[ls], &[]);
-                    d.cmd_push_constants(cmd, ll, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&[pass, sample, count, 0]));
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+                    d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
+                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&[pass, sample, count, batch]));
                     d.cmd_dispatch(cmd, groups(invocations), 1, 1);
                 }
                 after_compute(shader.0 | vk::PipelineStageFlags::DRAW_INDIRECT, shader.1 | vk::AccessFlags::INDIRECT_COMMAND_READ);
             };
-            let march = |first: bool, indirect_groups: bool| {
-                // SAFETY: the march's pipeline, bound to live buffers sized
-                // for `rays`; the indirect buffer was written by the gate.
-                unsafe {
-                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-                    d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
-                    let push = [n_rays, u32::from(first), slice_steps, 0];
-                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&push));
-                    if indirect_groups {
-                        d.cmd_dispatch_indirect(cmd, indirect, 0);
-                    } else {
-                        d.cmd_dispatch(cmd, groups(rays), 1, 1);
+            // A march of every ray in `rays`: a first slice, gated slices,
+            // and the check that none is still marching.
+            let march = |m: &Marcher| {
+                let (pipeline, layout, set) = m.handles;
+                for slice in 0..m.slices {
+                    if slice > 0 {
+                        look_pass(layout::LOOK_PASS_GATE, 0, n_rays, 0);
                     }
+                    // SAFETY: the march's pipeline, bound to live buffers
+                    // sized for `rays`; the indirect buffer was written by
+                    // the gate.
+                    unsafe {
+                        d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+                        d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
+                        let push = [n_rays, u32::from(slice == 0), m.slice_steps, 0];
+                        d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&push));
+                        if slice > 0 {
+                            d.cmd_dispatch_indirect(cmd, indirect, 0);
+                        } else {
+                            d.cmd_dispatch(cmd, groups(rays), 1, 1);
+                        }
+                    }
+                    after_compute(shader.0, shader.1);
                 }
-                after_compute(shader.0, shader.1);
+                look_pass(layout::LOOK_PASS_GATE, 1, n_rays, 0);
             };
             // SAFETY: recording on `cmd`; the counters are device buffers.
             unsafe {
@@ -319,17 +456,20 @@ impl Renderer {
                 crate::gpu::memory_barrier(d, cmd, (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE), shader);
             }
             for s in 0..samples {
-                look_pass(layout::LOOK_PASS_CAMERA, s, n_rays);
-                march(true, false);
-                for _ in 1..slices {
-                    look_pass(layout::LOOK_PASS_GATE, 0, n_rays);
-                    march(false, true);
+                look_pass(layout::LOOK_PASS_CAMERA, s, n_rays, 0);
+                march(&camera);
+                look_pass(layout::LOOK_PASS_SURFACE, s, n_rays, 0);
+                if let Some(any_hit) = &any_hit {
+                    for b in 0..batches {
+                        look_pass(layout::LOOK_PASS_SPAWN, s, n_rays, b);
+                        march(any_hit);
+                        look_pass(layout::LOOK_PASS_OCCLUDE, s, n_rays, b);
+                    }
                 }
-                look_pass(layout::LOOK_PASS_GATE, 1, n_rays);
-                look_pass(layout::LOOK_PASS_SAMPLE, s, n_rays);
-                look_pass(layout::LOOK_PASS_ACCUMULATE, s, pixels as u32);
+                look_pass(layout::LOOK_PASS_SAMPLE, s, n_rays, 0);
+                look_pass(layout::LOOK_PASS_ACCUMULATE, s, pixels as u32, 0);
             }
-            look_pass(layout::LOOK_PASS_FINISH, 0, pixels as u32);
+            look_pass(layout::LOOK_PASS_FINISH, 0, pixels as u32, 0);
         })?;
         let image = self.transfers.take::<u32>(image)?;
         let words = self.transfers.take::<u32>(words)?;
@@ -346,9 +486,11 @@ impl Renderer {
     pub fn gpu_camera_rays(&mut self, scene: &Scene, (width, height): (u32, u32), sample: u32, samples: u32) -> Result<Vec<GpuRay>> {
         let rays = (width.div_ceil(PIXEL_TILE) * height.div_ceil(PIXEL_TILE) * PIXEL_TILE * PIXEL_TILE) as usize;
         self.ensure_frame_buffers(rays, u64::from(width) * u64::from(height))?;
+        self.warm_cold()?;
         let look = self.look.as_mut().expect("made above");
         look.look.write(0, &[look_of(scene, (width, height), samples, &Effects::default())])?;
-        let (lp, ll, ls) = (look.pipeline.pipeline, look.pipeline.layout, look.pipeline.set);
+        let camera = &look.pipelines[layout::LOOK_PASS_CAMERA as usize];
+        let (lp, ll, ls) = (camera.pipeline, camera.layout, camera.set);
         let read = self.transfers.fetch::<GpuRay>(&self.rays, 0, rays)?;
         let deadline = Instant::now() + self.timeout;
         self.submitter.run_with(deadline, self.timeout, &mut self.transfers, |d, cmd| {

@@ -297,6 +297,12 @@ pub struct Renderer {
     /// The kernel and buffers of frames made on the GPU (render::frame),
     /// made with the first.
     look: Option<frame::LookPass>,
+    /// Pipelines made and not yet warmed up, with their harmless pushes
+    /// ([`Renderer::warm_cold`]).
+    cold: Vec<((vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet), [u32; 4])>,
+    /// The slices the last GPU frame recorded for its camera rays and its
+    /// shadow and occlusion rays (render::frame).
+    frame_slices: [u64; 2],
 }
 
 /// How long a renderer's GPU work may take unless its maker says
@@ -583,6 +589,8 @@ impl Renderer {
             scene: scene.clone(),
             timeout,
             look: None,
+            cold: Vec::new(),
+            frame_slices: [0; 2],
         };
         Ok(renderer)
     }
@@ -641,6 +649,7 @@ impl Renderer {
         let deadline = Instant::now() + self.timeout;
         let longest = self.transfers.fetch::<u32>(&self.scratch, 0, 1)?;
         let entries = self.transfers.fetch::<u32>(&self.cells, grid.lists(), 1)?;
+        self.warm_cold()?;
         let ns = self.submitter.run_with(deadline, self.timeout, &mut self.transfers, |d, cmd| {
             // SAFETY: the pipeline and its set are alive and bound to the
             // renderer's buffers, sized for this grid.
@@ -744,7 +753,7 @@ impl Renderer {
             p.bind(&self.bound_buffers())?;
         }
         if let Some(look) = &self.look {
-            look.bind(&self.rays, &self.results, &self.active)?;
+            look.bind(&self.rays, &self.results, &self.active, &self.lights)?;
         }
         Ok(())
     }
@@ -832,19 +841,38 @@ impl Renderer {
     }
 
     /// [`Renderer::warm_up`] with push constants under which no invocation
-    /// reads or writes a buffer.
+    /// reads or writes a buffer. The warm-up waits for the next submission
+    /// ([`Renderer::warm_cold`]): pipelines made together warm up in one.
     fn warm_up_with(&mut self, handles: (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet), push: [u32; 4]) -> Result<()> {
+        self.cold.push((handles, push));
+        Ok(())
+    }
+
+    /// Warms up every pipeline made since the last call, in one submission
+    /// of its own (no transfers: those wait for the work they belong to),
+    /// its time counted with the pipelines' ([`Renderer::pipeline_ms`]).
+    /// Called before every submission that dispatches.
+    fn warm_cold(&mut self) -> Result<()> {
+        if self.cold.is_empty() {
+            return Ok(());
+        }
+        let started = Instant::now();
+        let cold = std::mem::take(&mut self.cold);
         let deadline = Instant::now() + self.timeout;
-        let (pipeline, layout, set) = handles;
-        self.submitter.run_with(deadline, self.timeout, &mut self.transfers, |d, cmd| {
-            // SAFETY: as in `dispatch`; no invocation reads or writes a buffer.
-            unsafe {
-                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-                d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
-                d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&push));
-                d.cmd_dispatch(cmd, 1, 1, 1);
+        self.submitter.run(deadline, self.timeout, |d, cmd| {
+            for &((pipeline, layout, set), push) in &cold {
+                // SAFETY: as in `dispatch`; no invocation reads or writes a
+                // buffer.
+                unsafe {
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+                    d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
+                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&push));
+                    d.cmd_dispatch(cmd, 1, 1, 1);
+                }
             }
         })?;
+        self.transfers.stats.submits += 1;
+        self.pipeline_ns += started.elapsed().as_secs_f64() * 1e9;
         Ok(())
     }
 
@@ -860,6 +888,7 @@ impl Renderer {
         pushes: &[[u32; 4]],
         count_active: bool,
     ) -> Result<Option<f64>> {
+        self.warm_cold()?;
         let active = self.active.handle;
         self.submitter.run_with(deadline, self.timeout, &mut self.transfers, |d, cmd| {
             // SAFETY: the pipeline, its layout and set are alive and bound
@@ -1073,10 +1102,11 @@ impl Renderer {
         options: &MarchOptions,
         tiles: bool,
     ) -> Result<((vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet), u32, u64)> {
+        // The pipeline first: it warms up with the index's build.
+        let handles = self.pipeline(EntryPoint::March, method, options, tiles)?;
         if !tiles {
             self.ensure_index()?;
         }
-        let handles = self.pipeline(EntryPoint::March, method, options, tiles)?;
         let slice_steps = match (tiles, &self.tiles) {
             (true, Some(t)) => t.slice_steps,
             _ => self.slice_steps,
