@@ -104,6 +104,59 @@ pub fn frame_path(pattern: &str, frame: u64) -> Result<PathBuf> {
     Ok(PathBuf::from(format!("{}{frame:0width$}{}", &pattern[..at], &pattern[at + width..])))
 }
 
+/// The frames on disk that `pattern` names ([`frame_path`]'s files, which
+/// shards wrote), in order: those of `range`, else every number found
+/// from the lowest to the highest. A gap is refused in one line naming the
+/// first missing frame's file; so is a pattern that names no file.
+pub fn frames_on_disk(pattern: &str, range: Option<FrameRange>) -> Result<Vec<(u64, PathBuf)>> {
+    let Some(at) = pattern.find('#') else {
+        bail!("{pattern:?} has no #### for the frame number (e.g. out/frame_####.png)");
+    };
+    let width = pattern[at..].chars().take_while(|&c| c == '#').count();
+    let (head, tail) = (&pattern[..at], &pattern[at + width..]);
+    if tail.contains(['/', '#']) {
+        bail!("{pattern:?}: the frame number must be in the file's name, once");
+    }
+    let (dir, prefix) = match head.rfind('/') {
+        Some(i) => (&head[..=i], &head[i + 1..]),
+        None => ("", head),
+    };
+    let folder = if dir.is_empty() { std::path::Path::new(".") } else { std::path::Path::new(dir) };
+    let entries = std::fs::read_dir(folder).map_err(|e| anyhow::anyhow!("{}: {e}", folder.display()))?;
+    let mut found = std::collections::BTreeSet::new();
+    for entry in entries {
+        let name = entry?.file_name();
+        let Some(name) = name.to_str() else { continue };
+        let Some(digits) = name.strip_prefix(prefix).and_then(|rest| rest.strip_suffix(tail)) else { continue };
+        // frame_path pads to the run's width and writes wider numbers whole.
+        if digits.len() >= width
+            && digits.bytes().all(|b| b.is_ascii_digit())
+            && (digits.len() == width || !digits.starts_with('0'))
+            && let Ok(n) = digits.parse::<u64>()
+        {
+            found.insert(n);
+        }
+    }
+    let range = match range {
+        Some(r) => r,
+        None => match (found.first(), found.last()) {
+            (Some(&a), Some(&b)) => FrameRange { start: a, end: b + 1 },
+            _ => bail!("{pattern}: no frame on disk ({} holds no file that the pattern names)", folder.display()),
+        },
+    };
+    if let Some(missing) = (range.start..range.end).find(|f| !found.contains(f)) {
+        let present = found.range(range.start..range.end).count();
+        bail!(
+            "{}: missing: frame {missing} is the first of frames {}..{} not on disk ({present} of {} are): render it (--frames with --skip-existing) before encoding",
+            frame_path(pattern, missing)?.display(),
+            range.start,
+            range.end,
+            range.end - range.start
+        );
+    }
+    (range.start..range.end).map(|f| Ok((f, frame_path(pattern, f)?))).collect()
+}
+
 /// Shard `index` of `count`: the frames whose number modulo `count` is
 /// `index`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -190,6 +243,28 @@ mod tests {
         assert_eq!(frame_path("out/frame_####.png", 7).unwrap(), PathBuf::from("out/frame_0007.png"));
         assert_eq!(frame_path("f#.png", 123).unwrap(), PathBuf::from("f123.png"));
         assert!(frame_path("out/frame.png", 1).is_err());
+    }
+
+    #[test]
+    fn frames_on_disk_are_found_in_order_and_a_gap_is_named() {
+        let dir = std::env::temp_dir().join(format!("isomarch-frames-on-disk-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let pattern = format!("{}/f_###.png", dir.display());
+        for f in [2, 3, 4, 1000] {
+            std::fs::write(frame_path(&pattern, f).unwrap(), b"").unwrap();
+        }
+        for other in ["f_0003.png", "f_03.png", "f_003.png.tmp", "g_005.png"] {
+            std::fs::write(dir.join(other), b"").unwrap();
+        }
+        let got = frames_on_disk(&pattern, Some(FrameRange { start: 2, end: 5 })).unwrap();
+        assert_eq!(got.iter().map(|f| f.0).collect::<Vec<_>>(), vec![2, 3, 4]);
+        assert_eq!(got[0].1, dir.join("f_002.png"));
+        let e = frames_on_disk(&pattern, None).unwrap_err().to_string();
+        assert!(e.contains("f_005.png: missing: frame 5 is the first of frames 2..1001 not on disk (4 of 999 are)"), "{e}");
+        let e = frames_on_disk(&format!("{}/h_##.png", dir.display()), None).unwrap_err().to_string();
+        assert!(e.contains("no frame on disk"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -268,3 +268,32 @@ fn a_movie_that_cannot_be_written_is_refused_in_one_line_before_any_frame() {
     }
     assert_eq!(names(&dir), Vec::<String>::new(), "a refused movie wrote something");
 }
+
+/// `encode` joins the PNGs that two shards wrote into the movie that one
+/// movie render writes, byte for byte (MP4 and GIF); with a frame removed
+/// it refuses in one line naming that frame's file, and writes nothing.
+#[test]
+fn encode_of_two_shards_frames_is_the_movie_of_one_render() {
+    let dir = scratch("encode-shards");
+    let pattern = dir.join("shards/f_####.png");
+    for shard in ["0/2", "1/2"] {
+        adk("0..7", "64x64", &pattern).args(["--shard", shard]).ok();
+    }
+    for ext in ["mp4", "gif"] {
+        let one = dir.join(format!("one.{ext}"));
+        adk("0..7", "64x64", &one).ok();
+        let joined = dir.join(format!("joined.{ext}"));
+        isomarch(["encode", pattern.to_str().unwrap(), "-o"]).arg(&joined).ok();
+        let (a, b) = (std::fs::read(&one).unwrap(), std::fs::read(&joined).unwrap());
+        assert!(a == b, "{ext}: encode of the shards' frames differs from one render's movie ({} and {} bytes)", a.len(), b.len());
+    }
+    // Only frames 2 to 4, as --frames asks.
+    let part = dir.join("part.mp4");
+    isomarch(["encode", pattern.to_str().unwrap(), "--frames", "2..5", "-o"]).arg(&part).ok();
+    assert_eq!(probe(&part).4, 3, "encode --frames 2..5");
+    std::fs::remove_file(dir.join("shards/f_0003.png")).unwrap();
+    let gap = dir.join("gap.mp4");
+    let err = isomarch(["encode", pattern.to_str().unwrap(), "-o"]).arg(&gap).fails_in_one_line();
+    assert!(err.contains("f_0003.png: missing: frame 3 is the first of frames 0..7 not on disk"), "{err}");
+    assert!(!gap.exists() && !names(&dir).iter().any(|n| n.ends_with(".tmp")), "a refused encode wrote something");
+}

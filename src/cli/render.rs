@@ -1,7 +1,6 @@
 //! `isomarch render`: one frame, or a batch of frames (`--frames`).
 
 use std::path::PathBuf;
-use std::sync::Arc;
 
 use anyhow::{Context as _, Result, bail};
 use clap::Args;
@@ -293,21 +292,7 @@ impl Batch {
 
     fn run(self) -> Result<()> {
         let Batch { job, stager, to, range, fps, shard, csv, gpu } = self;
-        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
-        let flag = Arc::clone(&stop);
-        // Ctrl-C, and SIGTERM and SIGHUP (scancel, a pod's deletion, a closed
-        // terminal): stop between frames, so that no temporary file is left.
-        ctrlc::set_handler(move || {
-            if flag.swap(true, std::sync::atomic::Ordering::SeqCst) {
-                // A second signal: leave now. Files are renamed into
-                // place whole, so none is half-written; a movie's encoder
-                // is stopped and its temporary file removed.
-                isomarch::movie::abandon_all();
-                std::process::exit(130);
-            }
-            eprintln!("\nstopping after the frame in flight (Ctrl-C again to quit now)");
-        })
-        .context("installing the signal handler")?;
+        let stop = super::stop_flag("after the frame in flight")?;
         let gpu = gpu.open()?;
         method_note(&job.scene, job.method);
         let sink = match &to {
