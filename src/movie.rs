@@ -144,16 +144,10 @@ impl Container {
     }
 }
 
-/// The containers whose encoder was found, so that it is looked for once.
-static ENCODERS_FOUND: Mutex<Vec<Container>> = Mutex::new(Vec::new());
-
 /// ffmpeg runs and has `container`'s encoder; else one line naming the
 /// Debian package.
 fn check_encoder(path: &Path, container: Container) -> Result<()> {
     let Some((encoder, _)) = container.ffmpeg() else { return Ok(()) };
-    if ENCODERS_FOUND.lock().is_ok_and(|found| found.contains(&container)) {
-        return Ok(());
-    }
     let out = match Command::new("ffmpeg").args(["-hide_banner", "-encoders"]).stdin(Stdio::null()).stderr(Stdio::null()).output() {
         Ok(out) => out,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!(
@@ -170,9 +164,6 @@ fn check_encoder(path: &Path, container: Container) -> Result<()> {
             path.display(),
             container.codec_name()
         );
-    }
-    if let Ok(mut found) = ENCODERS_FOUND.lock() {
-        found.push(container);
     }
     Ok(())
 }
@@ -324,7 +315,7 @@ impl MovieWriter {
             // movie early as if it were whole.
             .process_group(0)
             .spawn()
-            .with_context(|| format!("starting ffmpeg (Debian package {FFMPEG_PACKAGE})"))?;
+            .with_context(|| format!("starting ffmpeg (Debian: apt-get install {FFMPEG_PACKAGE})"))?;
         if let Ok(mut live) = LIVE.lock()
             && let Some(entry) = live.iter_mut().find(|(p, _)| *p == self.tmp)
         {

@@ -508,6 +508,57 @@ fn trajectory_open(
     Ok((NativeTrajectory { stager: std::sync::Mutex::new(stager), len, source }, notes.warnings, notes.summary))
 }
 
+/// A movie being written (`Trajectory.movie`): RGBA frames pushed in
+/// order, then finished, by the command line's writer
+/// (`isomarch::movie`): whole, or not at all.
+#[pyclass(module = "isomarch._native")]
+struct NativeMovie {
+    writer: Option<isomarch::movie::MovieWriter>,
+    size: (u32, u32),
+}
+
+#[pymethods]
+impl NativeMovie {
+    /// Checks the movie (its format, its size, ffmpeg for MP4 and WebM) and
+    /// starts it.
+    #[new]
+    fn new(path: PathBuf, fps: f64, quality: &str, width: u32, height: u32) -> PyResult<Self> {
+        use clap::ValueEnum as _;
+        let quality = isomarch::movie::Quality::from_str(quality, true)
+            .map_err(|_| IsomarchError::new_err(format!("quality {quality:?}: one of highest, higher, high, good, medium, fair, low")))?;
+        let spec = isomarch::movie::MovieSpec::new(&path, fps, quality, (width, height))
+            .map_err(raise)?
+            .ok_or_else(|| IsomarchError::new_err(format!("{}: a movie is .mp4, .webm or .gif", path.display())))?;
+        let writer = isomarch::movie::MovieWriter::create(&spec, (width, height)).map_err(raise)?;
+        Ok(NativeMovie { writer: Some(writer), size: (width, height) })
+    }
+
+    /// Appends a frame: RGBA uint8, the movie's size (alpha dropped).
+    fn push(&mut self, py: Python<'_>, rgba: PyReadonlyArray1<'_, u8>) -> PyResult<()> {
+        let (width, height) = self.size;
+        let rgba = rgba.as_array();
+        if rgba.len() != (width * height * 4) as usize {
+            return Err(IsomarchError::new_err(format!("{} bytes for a {width}x{height} RGBA frame", rgba.len())));
+        }
+        let rgb: Vec<u8> = rgba.iter().enumerate().filter(|(i, _)| i % 4 != 3).map(|(_, v)| *v).collect();
+        let img = image::RgbImage::from_raw(width, height, rgb).ok_or_else(|| IsomarchError::new_err("frame size"))?;
+        let writer = self.writer.as_mut().ok_or_else(|| IsomarchError::new_err("the movie is already closed"))?;
+        py.detach(|| writer.push(&img)).map_err(raise)
+    }
+
+    /// Ends the movie and renames it into place.
+    fn finish(&mut self, py: Python<'_>) -> PyResult<()> {
+        let writer = self.writer.take().ok_or_else(|| IsomarchError::new_err("the movie is already closed"))?;
+        py.detach(|| writer.finish()).map(drop).map_err(raise)
+    }
+
+    /// Drops an unfinished movie: its encoder stopped, its temporary file
+    /// removed.
+    fn abandon(&mut self) {
+        self.writer = None;
+    }
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("IsomarchError", m.py().get_type::<IsomarchError>())?;
@@ -517,6 +568,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<NativeScene>()?;
     m.add_class::<NativeRenderer>()?;
     m.add_class::<NativeTrajectory>()?;
+    m.add_class::<NativeMovie>()?;
     m.add_function(wrap_pyfunction!(trajectory_open, m)?)?;
     m.add_function(wrap_pyfunction!(scene_load, m)?)?;
     m.add_function(wrap_pyfunction!(scene_from_molecule, m)?)?;
