@@ -165,6 +165,49 @@ fn dist2(a: [u8; 3], b: [u8; 3]) -> i32 {
     (0..3).map(|i| (i32::from(a[i]) - i32::from(b[i])).pow(2)).sum()
 }
 
+/// Checks `movie`, a GIF, against the PNGs `png(k)`: `count` frames of
+/// `size`, looping, `delay` hundredths each; each frame has its own
+/// palette of at most 256 colours, every pixel is the colour of that
+/// palette nearest to the PNG's pixel (squared RGB distance; of equals,
+/// any), and the frame is within `min_psnr` dB of the PNG. The worst
+/// frame's PSNR.
+fn assert_gif_frames(movie: &Path, png: impl Fn(usize) -> PathBuf, count: usize, size: (u16, u16), delay: u16, min_psnr: f64) -> f64 {
+    let mut options = gif::DecodeOptions::new();
+    options.set_color_output(gif::ColorOutput::Indexed);
+    let mut decoder = options.read_info(std::fs::File::open(movie).unwrap()).unwrap();
+    assert_eq!(decoder.repeat(), gif::Repeat::Infinite, "the GIF loops");
+    let global = decoder.global_palette().map(<[u8]>::to_vec);
+    let mut k = 0;
+    let mut worst = f64::INFINITY;
+    while let Some(frame) = decoder.read_next_frame().unwrap() {
+        assert!(k < count, "more than {count} frames");
+        assert_eq!((frame.width, frame.height, frame.left, frame.top), (size.0, size.1, 0, 0), "frame {k}: a whole frame");
+        assert_eq!(frame.delay, delay, "frame {k}: its delay in hundredths of a second");
+        let palette: Vec<[u8; 3]> =
+            frame.palette.clone().or_else(|| global.clone()).expect("a palette").chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
+        assert!(palette.len() <= 256, "frame {k}: {} colours", palette.len());
+        let png = image::open(png(k)).unwrap().to_rgb8();
+        let mut got = Vec::with_capacity(png.as_raw().len());
+        for (i, &index) in frame.buffer.iter().enumerate() {
+            let want = png.as_raw()[3 * i..3 * i + 3].try_into().unwrap();
+            let colour = palette[usize::from(index)];
+            let nearest = palette.iter().map(|&c| dist2(c, want)).min().unwrap();
+            assert!(
+                dist2(colour, want) <= nearest,
+                "frame {k} pixel {i}: {colour:?} for {want:?}, at {} where the palette's nearest is at {nearest}",
+                dist2(colour, want)
+            );
+            got.extend(colour);
+        }
+        let p = psnr(png.as_raw(), &got);
+        worst = worst.min(p);
+        assert!(p >= min_psnr, "frame {k}: PSNR {p:.2} dB against the PNG, under {min_psnr}");
+        k += 1;
+    }
+    assert_eq!(k, count, "frames in the GIF");
+    worst
+}
+
 /// The GIF of frames 0..10 at 50 fps: 10 frames of 256x256 looping for
 /// ever, 2 hundredths of a second each; frame k equals PNG k after the GIF
 /// palette, the bound stated in docs/trajectories.md: each frame has its
@@ -179,40 +222,33 @@ fn gif_frames_are_the_pngs_after_each_frames_palette() {
     let movie = dir.join("adk.gif");
     adk("0..10", "256x256", &movie).args(["--fps", "50"]).ok();
     assert_eq!(names(&dir), vec!["adk.gif", "adk.gif.csv"], "what the GIF render left");
-    let mut options = gif::DecodeOptions::new();
-    options.set_color_output(gif::ColorOutput::Indexed);
-    let mut decoder = options.read_info(std::fs::File::open(&movie).unwrap()).unwrap();
-    assert_eq!(decoder.repeat(), gif::Repeat::Infinite, "the GIF loops");
-    let global = decoder.global_palette().map(<[u8]>::to_vec);
-    let mut k = 0;
-    let mut worst = f64::INFINITY;
-    while let Some(frame) = decoder.read_next_frame().unwrap() {
-        assert!(k < 10, "more than 10 frames");
-        assert_eq!((frame.width, frame.height, frame.left, frame.top), (256, 256, 0, 0), "frame {k}: a whole frame");
-        assert_eq!(frame.delay, 2, "frame {k}: 1/50 s is 2 hundredths");
-        let palette: Vec<[u8; 3]> =
-            frame.palette.clone().or_else(|| global.clone()).expect("a palette").chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
-        assert!(palette.len() <= 256, "frame {k}: {} colours", palette.len());
-        let png = image::open(refs.join(format!("f_{k:04}.png"))).unwrap().to_rgb8();
-        let mut got = Vec::with_capacity(256 * 256 * 3);
-        for (i, &index) in frame.buffer.iter().enumerate() {
-            let want = png.as_raw()[3 * i..3 * i + 3].try_into().unwrap();
-            let colour = palette[usize::from(index)];
-            let nearest = palette.iter().map(|&c| dist2(c, want)).min().unwrap();
-            assert!(
-                dist2(colour, want) <= nearest,
-                "frame {k} pixel {i}: {colour:?} for {want:?}, at {} where the palette's nearest is at {nearest}",
-                dist2(colour, want)
-            );
-            got.extend(colour);
-        }
-        let p = psnr(png.as_raw(), &got);
-        worst = worst.min(p);
-        assert!(p >= 30.0, "frame {k}: PSNR {p:.2} dB against the PNG, under 30");
-        k += 1;
-    }
-    assert_eq!(k, 10, "frames in the GIF");
+    let worst = assert_gif_frames(&movie, |k| refs.join(format!("f_{k:04}.png")), 10, (256, 256), 2, 30.0);
     eprintln!("GIF: the worst frame's PSNR {worst:.2} dB");
+}
+
+/// Movies of what else `render --frames` renders: a turntable about a
+/// molecule (1A8O, `--turntable 4`) and an animated scene (fig16), each a
+/// GIF of the PNG batch's frames (as above), whose frames differ from one
+/// another (they move).
+#[test]
+fn a_turntable_and_an_animated_scene_make_movies_of_their_frames() {
+    let pdb = repo_root().join("tests/data/molecules/1A8O.pdb");
+    let cases: [(&str, Vec<String>); 2] = [
+        ("turntable", vec![pdb.to_str().unwrap().to_string(), "--turntable".into(), "4".into()]),
+        ("animated", vec![repo_root().join("scenes/fig16.ron").to_str().unwrap().to_string()]),
+    ];
+    for (name, input) in cases {
+        let dir = scratch(&format!("movie-{name}"));
+        let render = |out: &Path| {
+            isomarch(["render"]).args(&input).args(["--frames", "0..4", "--fps", "2", "--size", "48x48", "-o"]).arg(out).current_dir(repo_root()).ok()
+        };
+        render(&dir.join("f_#.png"));
+        let movie = dir.join(format!("{name}.gif"));
+        render(&movie);
+        assert_gif_frames(&movie, |k| dir.join(format!("f_{k}.png")), 4, (48, 48), 50, 25.0);
+        let first = std::fs::read(dir.join("f_0.png")).unwrap();
+        assert!((1..4).all(|k| std::fs::read(dir.join(format!("f_{k}.png"))).unwrap() != first), "{name}: the frames do not move");
+    }
 }
 
 /// A movie render stopped by SIGTERM halfway ends with status 130 and
