@@ -359,6 +359,13 @@ pub enum Sink<'a> {
     Movie(&'a crate::movie::MovieSpec),
 }
 
+/// The size of a batch's frames as a movie holds them: the image, and the
+/// legend's rows under it where it has one.
+pub fn movie_frame_size(job: &crate::render::offscreen::RenderJob) -> (u32, u32) {
+    let legend = if job.legend.is_some() { crate::output::LEGEND_HEIGHT } else { 0 };
+    (job.width, job.height + legend)
+}
+
 /// Where a batch's CSV rows go: appended to the file as frames land, or
 /// kept until the movie they describe is whole.
 enum Log {
@@ -449,7 +456,7 @@ pub fn run(
                 shard == Shard::ALL,
                 "a movie is written by one process: render numbered PNGs in shards and join them with `isomarch encode`"
             );
-            let size = crate::movie::frame_size(job);
+            let size = movie_frame_size(job);
             let writer = crate::movie::MovieWriter::create(spec, size)?;
             let todo = frames.iter().map(|&f| (f, spec.path.clone())).collect();
             (todo, Log::Held(format!("{CSV_HEADER}\n").into_bytes()), Some(writer))

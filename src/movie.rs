@@ -101,7 +101,11 @@ impl MovieSpec {
     /// for frames of `size`); `None` for any other file.
     pub fn new(path: &Path, fps: f64, quality: Quality, size: (u32, u32)) -> Result<Option<MovieSpec>> {
         let Some(container) = check(path, Some(size))? else { return Ok(None) };
-        let fps = crate::checks::fps(fps)?;
+        // As the command line's --fps is checked (checks::fps, which this
+        // module below the renderer cannot reach).
+        if !(fps.is_finite() && fps > 0.0) {
+            bail!("--fps must be positive, got {fps}");
+        }
         Ok(Some(MovieSpec { path: path.to_path_buf(), container, fps, quality }))
     }
 }
@@ -166,13 +170,6 @@ fn check_encoder(path: &Path, container: Container) -> Result<()> {
         );
     }
     Ok(())
-}
-
-/// The size of a batch's frames as written: the image, and the legend's
-/// rows under it where it has one.
-pub fn frame_size(job: &crate::render::offscreen::RenderJob) -> (u32, u32) {
-    let legend = if job.legend.is_some() { crate::output::LEGEND_HEIGHT } else { 0 };
-    (job.width, job.height + legend)
 }
 
 /// The temporary files of movies being written and the encoders writing

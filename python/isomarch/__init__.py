@@ -296,13 +296,13 @@ class Trajectory:
             raise IsomarchError("no frame to write: frames is empty")
         first = self[frames[0]]
         width, height = first.resolution if size is None else size
-        movie = _native.NativeMovie(_os.fspath(path), float(fps), str(quality), int(width), int(height))
+        path = _os.fspath(path)
+        movie = _native.NativeMovie(path, float(fps), str(quality), int(width), int(height))
         try:
             renderer = Renderer() if renderer is None else renderer
             for k in frames:
                 scene = first if k == frames[0] else self[k]
-                image = renderer.render(scene, size=(width, height), method=method, time=k / float(fps), samples=samples, **look)
-                movie.push(image.rgba.reshape(-1))
+                movie.push(renderer.render(scene, (width, height), method, k / float(fps), samples, _movie=path, **look))
         except BaseException:
             movie.abandon()
             raise
@@ -366,6 +366,7 @@ class Renderer:
         outline_color: Optional[str] = None,
         outline_jump: Optional[float] = None,
         transparent_background: bool = False,
+        _movie: Optional[str] = None,
     ) -> Image:
         """Renders ``scene`` at scene ``time`` (seconds), ``size`` (width,
         height; default the scene camera's), with ``method`` (default the
@@ -374,7 +375,9 @@ class Renderer:
         ``--depth-cue`` (``"START:END"``), ``--outline`` (a width),
         ``--outline-color``, ``--outline-jump`` and
         ``--transparent-background`` (``rgba``'s alpha is then each
-        pixel's coverage) as keywords."""
+        pixel's coverage) as keywords. (``_movie``, for
+        :meth:`Trajectory.movie`: the frame of that movie, as the command
+        line makes it; its flat RGBA array alone.)"""
         width, height = scene.resolution if size is None else size
         raw = self._native.render(
             scene._native,
@@ -388,7 +391,10 @@ class Renderer:
             outline_color,
             None if outline_jump is None else float(outline_jump),
             bool(transparent_background),
+            _movie,
         )
+        if _movie is not None:
+            return raw["rgba"]
         return Image(raw, int(width), int(height))
 
     def bench(

@@ -87,6 +87,7 @@ class NativeRenderer:
         outline_color: Optional[str],
         outline_jump: Optional[float],
         transparent_background: bool,
+        movie: Optional[str] = None,
     ) -> dict: ...
     def bench(
         self,

@@ -321,6 +321,41 @@ struct NativeRenderer {
     timeout: Duration,
 }
 
+/// The depth cue, outline width, outline colour and outline jump, as
+/// `render` takes them.
+type LookArgs = (Option<String>, Option<u32>, Option<String>, Option<f64>);
+
+impl NativeRenderer {
+    /// The job of rendering `scene` at `time` with these choices, checked
+    /// as the command line checks them, writing (if anything) `output`.
+    #[allow(clippy::too_many_arguments)]
+    fn job(
+        &self,
+        scene: &NativeScene,
+        (width, height): (u32, u32),
+        method: Option<&str>,
+        time: f64,
+        samples: Option<u32>,
+        (depth_cue, outline, outline_color, outline_jump): LookArgs,
+        output: PathBuf,
+    ) -> PyResult<RenderJob> {
+        isomarch::checks::size(width, height).map_err(raise)?;
+        let color = outline_color.as_deref().map(|c| isomarch::checks::color("--outline-color", c)).transpose().map_err(raise)?;
+        let effects = isomarch::render::offscreen::Effects::from_choices(depth_cue.as_deref(), outline, color, outline_jump).map_err(raise)?;
+        let mut posed = scene.scene.at_time(isomarch::checks::time(time).map_err(raise)?);
+        if let Some(m) = method {
+            posed.marching.method = isomarch::checks::method(m).map_err(raise)?;
+        }
+        let method = posed.marching.method;
+        let mut job = RenderJob::new(posed, method, (width, height), output, self.timeout);
+        if let Some(n) = samples {
+            job.samples = isomarch::checks::samples(n).map_err(raise)?;
+        }
+        job.effects = effects;
+        Ok(job)
+    }
+}
+
 #[pymethods]
 impl NativeRenderer {
     #[new]
@@ -338,8 +373,9 @@ impl NativeRenderer {
 
     /// Renders `scene` at `time`: a dict of flat arrays (rgba uint8, depth
     /// float32 with inf on misses, steps uint32, normals float32) and the
-    /// frame's statistics.
+    /// frame's statistics; with `movie`, as a frame of that movie.
     #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (scene, width, height, method, time, samples, depth_cue, outline, outline_color, outline_jump, transparent_background, movie=None))]
     fn render<'py>(
         &self,
         py: Python<'py>,
@@ -354,21 +390,15 @@ impl NativeRenderer {
         outline_color: Option<String>,
         outline_jump: Option<f64>,
         transparent_background: bool,
+        movie: Option<PathBuf>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        isomarch::checks::size(width, height).map_err(raise)?;
-        let color = outline_color.as_deref().map(|c| isomarch::checks::color("--outline-color", c)).transpose().map_err(raise)?;
-        let effects = isomarch::render::offscreen::Effects::from_choices(depth_cue.as_deref(), outline, color, outline_jump).map_err(raise)?;
-        let mut posed = scene.scene.at_time(isomarch::checks::time(time).map_err(raise)?);
-        if let Some(m) = method {
-            posed.marching.method = isomarch::checks::method(m).map_err(raise)?;
-        }
-        let method = posed.marching.method;
-        let mut job = RenderJob::new(posed, method, (width, height), PathBuf::new(), self.timeout);
-        if let Some(n) = samples {
-            job.samples = isomarch::checks::samples(n).map_err(raise)?;
-        }
-        job.effects = effects;
-        let background = job.scene.background;
+        let look = (depth_cue, outline, outline_color, outline_jump);
+        let mut job = self.job(scene, (width, height), method, time, samples, look, movie.clone().unwrap_or_default())?;
+        // A movie's frame (`Trajectory.movie`) is made as `render --frames
+        // -o movie` makes it (on the GPU where it can): its image alone,
+        // the per-pixel arrays then empty.
+        job.results = movie.is_none();
+        let (method, background) = (job.method, job.scene.background);
         let ctx = Arc::clone(&self.ctx);
         let isomarch::render::offscreen::FrameReport { frame, march: stats, .. } =
             py.detach(move || render_frame_indexed(&ctx, &job)).map_err(raise)?;

@@ -275,7 +275,7 @@ impl Batch {
             if csv == output {
                 bail!("--csv {}: is the movie itself", csv.display());
             }
-            let size = isomarch::movie::frame_size(&job);
+            let size = isomarch::batch::movie_frame_size(&job);
             let spec = isomarch::movie::MovieSpec::new(&output, fps, batch.quality, size)?.context("a movie's extension")?;
             BatchOutput::Movie(spec)
         } else {
@@ -306,8 +306,8 @@ impl Batch {
                 spec.path.display(),
                 count(s.rendered, "frame"),
                 spec.fps,
-                isomarch::movie::frame_size(&job).0,
-                isomarch::movie::frame_size(&job).1,
+                isomarch::batch::movie_frame_size(&job).0,
+                isomarch::batch::movie_frame_size(&job).1,
                 csv.display()
             ),
             BatchOutput::Movie(_) => {}
