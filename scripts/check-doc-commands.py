@@ -21,8 +21,9 @@ Commands run from the repository root with the release binary in place of
 into a fresh temporary folder of its own, shown as $OUT (so batches do not
 share out/frames.csv). A relative input that is not in the repository but
 that an earlier command wrote (out/p1000.ron) is read from that command's
-folder; tradeoff --replot gets a copy of the folder it replots. Identical
-commands run once.
+folder (encode's frame pattern, out/frame_####.png, from the folder of an
+earlier command that wrote such frames); tradeoff --replot gets a copy of the
+folder it replots. Identical commands run once.
 Skipped, with the reason: `view` (needs a display), commands with placeholders
 (SCENE, FILE, M, ..., $v, <x>, [a | b]), spans missing required arguments, and
 inputs made by something other than isomarch (globs that match nothing).
@@ -51,7 +52,7 @@ MAX_RAYS = 2048
 OUTPUT_FLAGS = {"output", "heatmap", "stats", "json", "csv", "aov-output",
                 "heatmap-grid", "screenshot", "screenshot-dir"}
 KNOWN = {"render", "view", "info", "tradeoff", "bench", "generate", "scene",
-         "scaling", "merge-stats", "frames"}
+         "scaling", "merge-stats", "frames", "encode"}
 SHELL_LANGS = {"", "sh", "bash", "shell", "console"}
 # A capitalised word as a whole path component (SCENE, scenes/SCENE.ron, M),
 # an ellipsis, a shell variable, <x>, [optional | alternative].
@@ -233,6 +234,14 @@ def prepare(cmd, binary, out, earlier, helps):
         if it[0] == "pos":
             p = it[1]
             if os.path.isabs(p) or (ROOT / p).exists():
+                continue
+            if "#" in p:
+                # encode's frame pattern: the folder an earlier command
+                # wrote the frames in, if one did.
+                folders = [base for base in earlier if glob.glob(glob.escape(str(base)) + "/" + p.replace("#", "[0-9]"))]
+                if not folders:
+                    return None, env, f"no frames {p} (written outside these commands)", notes
+                it[1] = str(folders[0] / p)
                 continue
             found = find_input(p, earlier)
             if any(c in p for c in "*?[") and not found:

@@ -20,17 +20,23 @@ ISOMARCH_PACKAGES=(
 # Optional package sets, named in ISOMARCH_WITH (space-separated) by the
 # script that sources this file: `slurm` is a one-node SLURM with its
 # authentication (scripts/slurm-local.sh; the test suite's SLURM test).
-# `lint` is rustfmt and clippy (rustup components; the test suite checks
-# formatting and lints first). `fuzz` is cargo-fuzz (scripts/fuzz.sh).
+# `movie` is ffmpeg, which `render -o movie.mp4`/`.webm` and `encode` hand
+# their frames to, and whose ffprobe the movie tests read them back with:
+# the test suite's, not the first picture's (its minutes count, and a
+# PNG needs no encoder). `lint` is rustfmt and clippy (rustup components;
+# the test suite checks formatting and lints first). `fuzz` is cargo-fuzz
+# (scripts/fuzz.sh).
 ISOMARCH_PACKAGES_SLURM=(slurm-wlm munge)
+ISOMARCH_PACKAGES_MOVIE=(ffmpeg)
 ISOMARCH_COMPONENTS=()
 ISOMARCH_CARGO_TOOLS=()
 for _isomarch_set in ${ISOMARCH_WITH:-}; do
     case "$_isomarch_set" in
         slurm) ISOMARCH_PACKAGES+=("${ISOMARCH_PACKAGES_SLURM[@]}") ;;
+        movie) ISOMARCH_PACKAGES+=("${ISOMARCH_PACKAGES_MOVIE[@]}") ;;
         lint) ISOMARCH_COMPONENTS+=(rustfmt clippy) ;;
         fuzz) ISOMARCH_CARGO_TOOLS+=(cargo-fuzz) ;;
-        *) echo "isomarch: ISOMARCH_WITH names an unknown package set $_isomarch_set (known: slurm, lint, fuzz)" >&2; exit 1 ;;
+        *) echo "isomarch: ISOMARCH_WITH names an unknown package set $_isomarch_set (known: slurm, movie, lint, fuzz)" >&2; exit 1 ;;
     esac
 done
 

@@ -3,6 +3,8 @@
 # environment beside the target dir, with the target dir shared, and runs
 # its pytest suite against the command line built from the same tree.
 # Called by scripts/test.sh. Extra arguments go to pytest.
+# The movie tests need ffmpeg (scripts/env.sh's `movie` set).
+ISOMARCH_WITH="${ISOMARCH_WITH:-} movie"
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 cd "$ISOMARCH_ROOT"
 venv="$CARGO_TARGET_DIR/python-venv"

@@ -3,8 +3,9 @@
 # Usage: bash scripts/test.sh [extra cargo test arguments]
 # Then the Python package's tests (scripts/python-test.sh).
 # The suite includes a SLURM test (tests/slurm.rs), which starts a one-node
-# cluster with scripts/slurm-local.sh: install its packages here too.
-ISOMARCH_WITH="${ISOMARCH_WITH:-} slurm lint"
+# cluster with scripts/slurm-local.sh: install its packages here too; and
+# the movie tests (tests/movies.rs, python/tests) need ffmpeg and ffprobe.
+ISOMARCH_WITH="${ISOMARCH_WITH:-} slurm movie lint"
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 cd "$ISOMARCH_ROOT"
 # Formatting and lints first (rustfmt.toml; allowed lints are justified in

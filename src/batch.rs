@@ -104,6 +104,59 @@ pub fn frame_path(pattern: &str, frame: u64) -> Result<PathBuf> {
     Ok(PathBuf::from(format!("{}{frame:0width$}{}", &pattern[..at], &pattern[at + width..])))
 }
 
+/// The frames on disk that `pattern` names ([`frame_path`]'s files, which
+/// shards wrote), in order: those of `range`, else every number found
+/// from the lowest to the highest. A gap is refused in one line naming the
+/// first missing frame's file; so is a pattern that names no file.
+pub fn frames_on_disk(pattern: &str, range: Option<FrameRange>) -> Result<Vec<(u64, PathBuf)>> {
+    let Some(at) = pattern.find('#') else {
+        bail!("{pattern:?} has no #### for the frame number (e.g. out/frame_####.png)");
+    };
+    let width = pattern[at..].chars().take_while(|&c| c == '#').count();
+    let (head, tail) = (&pattern[..at], &pattern[at + width..]);
+    if tail.contains(['/', '#']) {
+        bail!("{pattern:?}: the frame number must be in the file's name, once");
+    }
+    let (dir, prefix) = match head.rfind('/') {
+        Some(i) => (&head[..=i], &head[i + 1..]),
+        None => ("", head),
+    };
+    let folder = if dir.is_empty() { std::path::Path::new(".") } else { std::path::Path::new(dir) };
+    let entries = std::fs::read_dir(folder).map_err(|e| anyhow::anyhow!("{}: {e}", folder.display()))?;
+    let mut found = std::collections::BTreeSet::new();
+    for entry in entries {
+        let name = entry?.file_name();
+        let Some(name) = name.to_str() else { continue };
+        let Some(digits) = name.strip_prefix(prefix).and_then(|rest| rest.strip_suffix(tail)) else { continue };
+        // frame_path pads to the run's width and writes wider numbers whole.
+        if digits.len() >= width
+            && digits.bytes().all(|b| b.is_ascii_digit())
+            && (digits.len() == width || !digits.starts_with('0'))
+            && let Ok(n) = digits.parse::<u64>()
+        {
+            found.insert(n);
+        }
+    }
+    let range = match range {
+        Some(r) => r,
+        None => match (found.first(), found.last()) {
+            (Some(&a), Some(&b)) => FrameRange { start: a, end: b + 1 },
+            _ => bail!("{pattern}: no frame on disk ({} holds no file that the pattern names)", folder.display()),
+        },
+    };
+    if let Some(missing) = (range.start..range.end).find(|f| !found.contains(f)) {
+        let present = found.range(range.start..range.end).count();
+        bail!(
+            "{}: missing: frame {missing} is the first of frames {}..{} not on disk ({present} of {} are): render it (--frames with --skip-existing) before encoding",
+            frame_path(pattern, missing)?.display(),
+            range.start,
+            range.end,
+            range.end - range.start
+        );
+    }
+    (range.start..range.end).map(|f| Ok((f, frame_path(pattern, f)?))).collect()
+}
+
 /// Shard `index` of `count`: the frames whose number modulo `count` is
 /// `index`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -193,6 +246,28 @@ mod tests {
     }
 
     #[test]
+    fn frames_on_disk_are_found_in_order_and_a_gap_is_named() {
+        let dir = std::env::temp_dir().join(format!("isomarch-frames-on-disk-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let pattern = format!("{}/f_###.png", dir.display());
+        for f in [2, 3, 4, 1000] {
+            std::fs::write(frame_path(&pattern, f).unwrap(), b"").unwrap();
+        }
+        for other in ["f_0003.png", "f_03.png", "f_003.png.tmp", "g_005.png"] {
+            std::fs::write(dir.join(other), b"").unwrap();
+        }
+        let got = frames_on_disk(&pattern, Some(FrameRange { start: 2, end: 5 })).unwrap();
+        assert_eq!(got.iter().map(|f| f.0).collect::<Vec<_>>(), vec![2, 3, 4]);
+        assert_eq!(got[0].1, dir.join("f_002.png"));
+        let e = frames_on_disk(&pattern, None).unwrap_err().to_string();
+        assert!(e.contains("f_005.png: missing: frame 5 is the first of frames 2..1001 not on disk (4 of 999 are)"), "{e}");
+        let e = frames_on_disk(&format!("{}/h_##.png", dir.display()), None).unwrap_err().to_string();
+        assert!(e.contains("no frame on disk"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn the_scene_column_reads_back_and_other_scenes_are_refused() {
         for scene in ["scenes/fig16.ron", "a \"quoted\", name.pdb", ""] {
             assert_eq!(last_quoted_field(&format!("0,1.0,{}", quoted(scene))).as_deref(), Some(scene));
@@ -271,12 +346,54 @@ pub struct BatchSummary {
     pub interrupted: bool,
 }
 
-/// Renders the frames of `range` in `shard` to `pattern` (see
-/// [`frame_path`]), each PNG written atomically, with a progress bar (frames
-/// done, frames per second, time left). Per-frame statistics are appended to
-/// `csv` as each frame lands. With `skip_existing`, frames already on disk
-/// are kept. `stop` is checked between frames: a requested stop ends the
-/// batch after the frame in flight is written. With a `trajectory`, frame
+/// Where a batch's frames go.
+#[derive(Clone, Copy, Debug)]
+pub enum Sink<'a> {
+    /// A file per frame, named by `pattern` ([`frame_path`]), each written
+    /// whole; with `skip_existing`, frames already on disk are kept. The
+    /// statistics CSV is appended to as each frame lands.
+    Files { pattern: &'a str, skip_existing: bool },
+    /// One movie of every frame in order, written whole at the end or not
+    /// at all; the statistics CSV is written with it, whole, replacing any
+    /// before.
+    Movie(&'a crate::movie::MovieSpec),
+}
+
+/// The size of a batch's frames as a movie holds them: the image, and the
+/// legend's rows under it where it has one.
+pub fn movie_frame_size(job: &crate::render::offscreen::RenderJob) -> (u32, u32) {
+    let legend = if job.legend.is_some() { crate::output::LEGEND_HEIGHT } else { 0 };
+    (job.width, job.height + legend)
+}
+
+/// Where a batch's CSV rows go: appended to the file as frames land, or
+/// kept until the movie they describe is whole.
+enum Log {
+    File(std::fs::File),
+    Held(Vec<u8>),
+}
+
+impl std::io::Write for Log {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        match self {
+            Log::File(f) => f.write(buf),
+            Log::Held(v) => v.write(buf),
+        }
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        match self {
+            Log::File(f) => f.flush(),
+            Log::Held(_) => Ok(()),
+        }
+    }
+}
+
+/// Renders the frames of `range` in `shard` to `sink`: PNGs (see
+/// [`frame_path`]), each written atomically, or one movie; with a progress
+/// bar (frames done, frames per second, time left). Per-frame statistics
+/// go to `csv` ([`Sink`] says when). `stop` is checked between frames: a
+/// requested stop ends the batch after the frame in flight is written (a
+/// movie is then not written at all). With a `trajectory`, frame
 /// n is the trajectory's frame n (posed at scene time n / fps, for a
 /// turntable camera), decoded ahead on another thread. Each frame is
 /// encoded and written on a thread of its own while the next one marches
@@ -287,11 +404,10 @@ pub fn run(
     ctx: &std::sync::Arc<crate::gpu::Context>,
     job: &crate::render::offscreen::RenderJob,
     trajectory: Option<crate::molecule::playback::Stager>,
-    pattern: &str,
+    sink: Sink,
     range: FrameRange,
     fps: f64,
     shard: Shard,
-    skip_existing: bool,
     csv: &std::path::Path,
     stop: &std::sync::atomic::AtomicBool,
 ) -> Result<BatchSummary> {
@@ -300,36 +416,52 @@ pub fn run(
 
     use anyhow::Context as _;
 
-    use crate::output::{FileFormat, shaded_bytes, write_atomic};
+    use crate::output::{FileFormat, shaded_bytes, shaded_rgb, write_atomic};
     use crate::render::{MarchOptions, Renderer};
 
     let frames: Vec<u64> = (range.start..range.end).filter(|&f| shard.contains(f)).collect();
     let mut summary = BatchSummary::default();
-    let todo: Vec<(u64, PathBuf)> = frames
-        .iter()
-        .map(|&f| Ok((f, frame_path(pattern, f)?)))
-        .collect::<Result<Vec<_>>>()?
-        .into_iter()
-        .filter(|(_, path)| {
-            let keep = !(skip_existing && path.exists());
-            summary.skipped += u64::from(!keep);
-            keep
-        })
-        .collect();
-    let existing = match std::fs::read_to_string(csv) {
-        Ok(text) => text,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
-        Err(e) => return Err(e).with_context(|| format!("reading {}", csv.display())),
+    let (todo, mut log, mut movie): (Vec<(u64, PathBuf)>, Log, _) = match sink {
+        Sink::Files { pattern, skip_existing } => {
+            let todo = frames
+                .iter()
+                .map(|&f| Ok((f, frame_path(pattern, f)?)))
+                .collect::<Result<Vec<_>>>()?
+                .into_iter()
+                .filter(|(_, path)| {
+                    let keep = !(skip_existing && path.exists());
+                    summary.skipped += u64::from(!keep);
+                    keep
+                })
+                .collect();
+            let existing = match std::fs::read_to_string(csv) {
+                Ok(text) => text,
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+                Err(e) => return Err(e).with_context(|| format!("reading {}", csv.display())),
+            };
+            check_csv(csv, &existing, &job.scene.source)?;
+            let new_csv = existing.trim().is_empty();
+            if let Some(dir) = csv.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+            }
+            let mut log =
+                Log::File(std::fs::OpenOptions::new().create(true).append(true).open(csv).with_context(|| format!("opening {}", csv.display()))?);
+            if new_csv {
+                writeln!(log, "{CSV_HEADER}")?;
+            }
+            (todo, log, None)
+        }
+        Sink::Movie(spec) => {
+            anyhow::ensure!(
+                shard == Shard::ALL,
+                "a movie is written by one process: render numbered PNGs in shards and join them with `isomarch encode`"
+            );
+            let size = movie_frame_size(job);
+            let writer = crate::movie::MovieWriter::create(spec, size)?;
+            let todo = frames.iter().map(|&f| (f, spec.path.clone())).collect();
+            (todo, Log::Held(format!("{CSV_HEADER}\n").into_bytes()), Some(writer))
+        }
     };
-    check_csv(csv, &existing, &job.scene.source)?;
-    let new_csv = existing.trim().is_empty();
-    if let Some(dir) = csv.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    let mut log = std::fs::OpenOptions::new().create(true).append(true).open(csv).with_context(|| format!("opening {}", csv.display()))?;
-    if new_csv {
-        writeln!(log, "{CSV_HEADER}")?;
-    }
     let bar = indicatif::ProgressBar::new(todo.len() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} frames ({per_sec}, {eta} left)")
@@ -364,11 +496,18 @@ pub fn run(
     std::thread::scope(|scope| -> Result<()> {
         let (landed, to_write) = std::sync::mpsc::sync_channel::<Landed>(1);
         let bar = &bar;
+        let log = &mut log;
+        let movie = &mut movie;
         let writer = scope.spawn(move || -> Result<u64> {
             let mut written = 0;
             for frame in to_write {
-                let bytes = shaded_bytes(&frame.image, FileFormat::of("-o", &frame.path, FileFormat::IMAGE)?, &[], look)?;
-                write_atomic(&frame.path, &bytes)?;
+                match movie.as_mut() {
+                    Some(movie) => movie.push(&shaded_rgb(&frame.image, look)?)?,
+                    None => {
+                        let bytes = shaded_bytes(&frame.image, FileFormat::of("-o", &frame.path, FileFormat::IMAGE)?, &[], look)?;
+                        write_atomic(&frame.path, &bytes)?;
+                    }
+                }
                 let (head, tail) = &frame.row;
                 writeln!(log, "{head},{:.1},{tail}", frame.started.elapsed().as_secs_f64() * 1e3)?;
                 log.flush()?;
@@ -442,6 +581,14 @@ pub fn run(
         marched
     })?;
     bar.finish_and_clear();
+    // A movie is written whole, then its statistics; a stopped one is
+    // dropped, its temporary file with it.
+    if let (Some(movie), false) = (movie, summary.interrupted) {
+        movie.finish()?;
+        if let Log::Held(rows) = log {
+            write_atomic(csv, &rows)?;
+        }
+    }
     Ok(summary)
 }
 

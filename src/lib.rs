@@ -20,6 +20,7 @@ pub mod layout;
 pub mod look;
 pub mod method;
 pub mod molecule;
+pub mod movie;
 pub mod open;
 pub mod output;
 pub mod render;

@@ -26,6 +26,7 @@ mod limits;
 mod marching;
 mod memory;
 mod molecules;
+mod movies;
 mod optics;
 mod planes;
 mod refinement;

@@ -266,6 +266,73 @@ class Trajectory:
         for k in range(len(self)):
             yield self[k]
 
+    def movie(
+        self,
+        path: PathLike,
+        fps: float = 25.0,
+        *,
+        size: Optional[Tuple[int, int]] = None,
+        quality: str = "good",
+        frames: Optional[range] = None,
+        renderer: Optional["Renderer"] = None,
+        method: Optional[str] = None,
+        samples: Optional[int] = None,
+        **look,
+    ) -> None:
+        """Writes the frames as a movie: ``.mp4`` (H.264), ``.webm`` (VP9)
+        or ``.gif``, as ``isomarch render TOPOLOGY TRAJECTORY --frames A..B
+        -o path`` writes it, byte for byte for the same options: frame k
+        rendered at scene time k / ``fps`` (a turntable turns), ``size``
+        (default the first frame's camera's), ``quality`` (``"highest"`` to
+        ``"low"``, default ``"good"``), ``frames`` (a range, default every
+        frame), and ``method``, ``samples`` and the look's keywords
+        (``depth_cue``, ``outline``, ...) as :meth:`Renderer.render` takes
+        them. Frames stream to the encoder as they are rendered; the movie
+        is written whole or not at all (an error or KeyboardInterrupt
+        leaves no file). MP4 and WebM need ffmpeg (Debian's ``ffmpeg``
+        package): without it, :class:`IsomarchError` before any frame."""
+        frames = range(len(self)) if frames is None else frames
+        if len(frames) == 0:
+            raise IsomarchError("no frame to write: frames is empty")
+        first = self[frames[0]]
+        width, height = first.resolution if size is None else size
+        path = _os.fspath(path)
+        movie = _native.NativeMovie(path, float(fps), str(quality), int(width), int(height))
+        try:
+            renderer = Renderer() if renderer is None else renderer
+            for k in frames:
+                scene = first if k == frames[0] else self[k]
+                movie.push(renderer.render(scene, (width, height), method, k / float(fps), samples, _movie=path, **look))
+        except BaseException:
+            movie.abandon()
+            raise
+        movie.finish()
+
+    #: How many frames (the first) and at what size (width, height) a
+    #: notebook's inline video of a trajectory shows (:meth:`_repr_html_`).
+    repr_frames: int = 100
+    repr_size: Tuple[int, int] = (256, 256)
+
+    def _repr_html_(self) -> str:
+        """The trajectory as an inline video in a notebook: its first
+        ``repr_frames`` frames at ``repr_size``, an MP4 in a ``<video>``
+        element (an animated GIF in an ``<img>`` where ffmpeg is not
+        installed), embedded as base64."""
+        import base64
+        import shutil
+        import tempfile
+
+        kind = "mp4" if shutil.which("ffmpeg") else "gif"
+        with tempfile.TemporaryDirectory() as folder:
+            path = _os.path.join(folder, f"trajectory.{kind}")
+            self.movie(path, frames=range(min(len(self), int(self.repr_frames))), size=self.repr_size)
+            with open(path, "rb") as f:
+                data = base64.b64encode(f.read()).decode("ascii")
+        width = int(self.repr_size[0])
+        if kind == "mp4":
+            return f'<video controls autoplay loop muted playsinline width="{width}" src="data:video/mp4;base64,{data}"></video>'
+        return f'<img width="{width}" src="data:image/gif;base64,{data}"/>'
+
     def __repr__(self) -> str:
         return f"Trajectory({self._native.source()!r}, {len(self)} frames)"
 
@@ -299,6 +366,7 @@ class Renderer:
         outline_color: Optional[str] = None,
         outline_jump: Optional[float] = None,
         transparent_background: bool = False,
+        _movie: Optional[str] = None,
     ) -> Image:
         """Renders ``scene`` at scene ``time`` (seconds), ``size`` (width,
         height; default the scene camera's), with ``method`` (default the
@@ -307,7 +375,9 @@ class Renderer:
         ``--depth-cue`` (``"START:END"``), ``--outline`` (a width),
         ``--outline-color``, ``--outline-jump`` and
         ``--transparent-background`` (``rgba``'s alpha is then each
-        pixel's coverage) as keywords."""
+        pixel's coverage) as keywords. (``_movie``, for
+        :meth:`Trajectory.movie`: the frame of that movie, as the command
+        line makes it; its flat RGBA array alone.)"""
         width, height = scene.resolution if size is None else size
         raw = self._native.render(
             scene._native,
@@ -321,7 +391,10 @@ class Renderer:
             outline_color,
             None if outline_jump is None else float(outline_jump),
             bool(transparent_background),
+            _movie,
         )
+        if _movie is not None:
+            return raw["rgba"]
         return Image(raw, int(width), int(height))
 
     def bench(

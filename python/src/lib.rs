@@ -321,6 +321,41 @@ struct NativeRenderer {
     timeout: Duration,
 }
 
+/// The depth cue, outline width, outline colour and outline jump, as
+/// `render` takes them.
+type LookArgs = (Option<String>, Option<u32>, Option<String>, Option<f64>);
+
+impl NativeRenderer {
+    /// The job of rendering `scene` at `time` with these choices, checked
+    /// as the command line checks them, writing (if anything) `output`.
+    #[allow(clippy::too_many_arguments)]
+    fn job(
+        &self,
+        scene: &NativeScene,
+        (width, height): (u32, u32),
+        method: Option<&str>,
+        time: f64,
+        samples: Option<u32>,
+        (depth_cue, outline, outline_color, outline_jump): LookArgs,
+        output: PathBuf,
+    ) -> PyResult<RenderJob> {
+        isomarch::checks::size(width, height).map_err(raise)?;
+        let color = outline_color.as_deref().map(|c| isomarch::checks::color("--outline-color", c)).transpose().map_err(raise)?;
+        let effects = isomarch::render::offscreen::Effects::from_choices(depth_cue.as_deref(), outline, color, outline_jump).map_err(raise)?;
+        let mut posed = scene.scene.at_time(isomarch::checks::time(time).map_err(raise)?);
+        if let Some(m) = method {
+            posed.marching.method = isomarch::checks::method(m).map_err(raise)?;
+        }
+        let method = posed.marching.method;
+        let mut job = RenderJob::new(posed, method, (width, height), output, self.timeout);
+        if let Some(n) = samples {
+            job.samples = isomarch::checks::samples(n).map_err(raise)?;
+        }
+        job.effects = effects;
+        Ok(job)
+    }
+}
+
 #[pymethods]
 impl NativeRenderer {
     #[new]
@@ -338,8 +373,9 @@ impl NativeRenderer {
 
     /// Renders `scene` at `time`: a dict of flat arrays (rgba uint8, depth
     /// float32 with inf on misses, steps uint32, normals float32) and the
-    /// frame's statistics.
+    /// frame's statistics; with `movie`, as a frame of that movie.
     #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (scene, width, height, method, time, samples, depth_cue, outline, outline_color, outline_jump, transparent_background, movie=None))]
     fn render<'py>(
         &self,
         py: Python<'py>,
@@ -354,21 +390,15 @@ impl NativeRenderer {
         outline_color: Option<String>,
         outline_jump: Option<f64>,
         transparent_background: bool,
+        movie: Option<PathBuf>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        isomarch::checks::size(width, height).map_err(raise)?;
-        let color = outline_color.as_deref().map(|c| isomarch::checks::color("--outline-color", c)).transpose().map_err(raise)?;
-        let effects = isomarch::render::offscreen::Effects::from_choices(depth_cue.as_deref(), outline, color, outline_jump).map_err(raise)?;
-        let mut posed = scene.scene.at_time(isomarch::checks::time(time).map_err(raise)?);
-        if let Some(m) = method {
-            posed.marching.method = isomarch::checks::method(m).map_err(raise)?;
-        }
-        let method = posed.marching.method;
-        let mut job = RenderJob::new(posed, method, (width, height), PathBuf::new(), self.timeout);
-        if let Some(n) = samples {
-            job.samples = isomarch::checks::samples(n).map_err(raise)?;
-        }
-        job.effects = effects;
-        let background = job.scene.background;
+        let look = (depth_cue, outline, outline_color, outline_jump);
+        let mut job = self.job(scene, (width, height), method, time, samples, look, movie.clone().unwrap_or_default())?;
+        // A movie's frame (`Trajectory.movie`) is made as `render --frames
+        // -o movie` makes it (on the GPU where it can): its image alone,
+        // the per-pixel arrays then empty.
+        job.results = movie.is_none();
+        let (method, background) = (job.method, job.scene.background);
         let ctx = Arc::clone(&self.ctx);
         let isomarch::render::offscreen::FrameReport { frame, march: stats, .. } =
             py.detach(move || render_frame_indexed(&ctx, &job)).map_err(raise)?;
@@ -508,6 +538,57 @@ fn trajectory_open(
     Ok((NativeTrajectory { stager: std::sync::Mutex::new(stager), len, source }, notes.warnings, notes.summary))
 }
 
+/// A movie being written (`Trajectory.movie`): RGBA frames pushed in
+/// order, then finished, by the command line's writer
+/// (`isomarch::movie`): whole, or not at all.
+#[pyclass(module = "isomarch._native")]
+struct NativeMovie {
+    writer: Option<isomarch::movie::MovieWriter>,
+    size: (u32, u32),
+}
+
+#[pymethods]
+impl NativeMovie {
+    /// Checks the movie (its format, its size, ffmpeg for MP4 and WebM) and
+    /// starts it.
+    #[new]
+    fn new(path: PathBuf, fps: f64, quality: &str, width: u32, height: u32) -> PyResult<Self> {
+        use clap::ValueEnum as _;
+        let quality = isomarch::movie::Quality::from_str(quality, true)
+            .map_err(|_| IsomarchError::new_err(format!("quality {quality:?}: one of highest, higher, high, good, medium, fair, low")))?;
+        let spec = isomarch::movie::MovieSpec::new(&path, fps, quality, (width, height))
+            .map_err(raise)?
+            .ok_or_else(|| IsomarchError::new_err(format!("{}: a movie is .mp4, .webm or .gif", path.display())))?;
+        let writer = isomarch::movie::MovieWriter::create(&spec, (width, height)).map_err(raise)?;
+        Ok(NativeMovie { writer: Some(writer), size: (width, height) })
+    }
+
+    /// Appends a frame: RGBA uint8, the movie's size (alpha dropped).
+    fn push(&mut self, py: Python<'_>, rgba: PyReadonlyArray1<'_, u8>) -> PyResult<()> {
+        let (width, height) = self.size;
+        let rgba = rgba.as_array();
+        if rgba.len() != (width * height * 4) as usize {
+            return Err(IsomarchError::new_err(format!("{} bytes for a {width}x{height} RGBA frame", rgba.len())));
+        }
+        let rgb: Vec<u8> = rgba.iter().enumerate().filter(|(i, _)| i % 4 != 3).map(|(_, v)| *v).collect();
+        let img = image::RgbImage::from_raw(width, height, rgb).ok_or_else(|| IsomarchError::new_err("frame size"))?;
+        let writer = self.writer.as_mut().ok_or_else(|| IsomarchError::new_err("the movie is already closed"))?;
+        py.detach(|| writer.push(&img)).map_err(raise)
+    }
+
+    /// Ends the movie and renames it into place.
+    fn finish(&mut self, py: Python<'_>) -> PyResult<()> {
+        let writer = self.writer.take().ok_or_else(|| IsomarchError::new_err("the movie is already closed"))?;
+        py.detach(|| writer.finish()).map(drop).map_err(raise)
+    }
+
+    /// Drops an unfinished movie: its encoder stopped, its temporary file
+    /// removed.
+    fn abandon(&mut self) {
+        self.writer = None;
+    }
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("IsomarchError", m.py().get_type::<IsomarchError>())?;
@@ -517,6 +598,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<NativeScene>()?;
     m.add_class::<NativeRenderer>()?;
     m.add_class::<NativeTrajectory>()?;
+    m.add_class::<NativeMovie>()?;
     m.add_function(wrap_pyfunction!(trajectory_open, m)?)?;
     m.add_function(wrap_pyfunction!(scene_load, m)?)?;
     m.add_function(wrap_pyfunction!(scene_from_molecule, m)?)?;

@@ -439,3 +439,46 @@ def test_a_transparent_backgrounds_alpha_is_an_edges_coverage(renderer, tmp_path
     covered = rgba[..., 3] > 0
     assert (np.abs(rgba[covered][:, :3] - surface) <= 1).all(), f"covered pixels not the surface's colour {surface}"
     assert (rgba[~covered] == 0).all(), "uncovered pixels not (0, 0, 0, 0)"
+
+
+ADK = (ROOT / "tests/data/trajectories/adk.psf", ROOT / "tests/data/trajectories/adk_dims.dcd")
+
+
+@pytest.mark.parametrize("ext", ["mp4", "gif"])
+def test_a_trajectory_movie_equals_the_clis_byte_for_byte(renderer, tmp_path, ext):
+    cli("render", *ADK, "--frames", "0..6", "--size", "64x64", "-o", tmp_path / f"cli.{ext}")
+    frames = isomarch.Trajectory(*ADK)
+    frames.movie(tmp_path / f"py.{ext}", frames=range(6), size=(64, 64), renderer=renderer)
+    cli_bytes, py_bytes = (tmp_path / f"cli.{ext}").read_bytes(), (tmp_path / f"py.{ext}").read_bytes()
+    assert len(py_bytes) > 1000 and py_bytes == cli_bytes, f"{ext}: Python's movie ({len(py_bytes)} bytes) is not the CLI's ({len(cli_bytes)})"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([f"cli.{ext}", f"cli.{ext}.csv", f"py.{ext}"])
+
+
+def test_a_movie_without_ffmpeg_is_refused_before_any_frame(tmp_path, monkeypatch):
+    frames = isomarch.Trajectory(*ADK)
+    monkeypatch.setenv("PATH", str(tmp_path / "nothing"))
+    with pytest.raises(isomarch.IsomarchError, match=r"needs ffmpeg.*apt-get install ffmpeg"):
+        frames.movie(tmp_path / "a.mp4", size=(64, 64))
+    with pytest.raises(isomarch.IsomarchError, match="even width and height"):
+        frames.movie(tmp_path / "a.gif.mp4", size=(63, 64))
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_trajectory_shows_as_an_inline_video_in_a_notebook(tmp_path, monkeypatch):
+    import base64
+    import re
+
+    frames = isomarch.Trajectory(*ADK)
+    frames.repr_frames, frames.repr_size = 4, (48, 48)
+    html = frames._repr_html_()
+    m = re.fullmatch(r'<video controls autoplay loop muted playsinline width="48" src="data:video/mp4;base64,([A-Za-z0-9+/=]+)"></video>', html)
+    assert m, html[:200]
+    frames.movie(tmp_path / "same.mp4", frames=range(4), size=(48, 48))
+    assert base64.b64decode(m.group(1)) == (tmp_path / "same.mp4").read_bytes(), "the inline MP4 is not movie()'s"
+    # Where ffmpeg is not installed: an animated GIF.
+    monkeypatch.setenv("PATH", str(tmp_path / "nothing"))
+    html = frames._repr_html_()
+    m = re.fullmatch(r'<img width="48" src="data:image/gif;base64,([A-Za-z0-9+/=]+)"/>', html)
+    assert m, html[:200]
+    gif = PILImage.open(__import__("io").BytesIO(base64.b64decode(m.group(1))))
+    assert gif.format == "GIF" and gif.size == (48, 48) and gif.n_frames == 4

@@ -8,6 +8,7 @@
 
 mod args;
 mod bench;
+mod encode;
 mod frames;
 mod generate;
 mod info;
@@ -83,6 +84,12 @@ enum Command {
     /// checking that every frame of --frames is listed exactly once (none
     /// missing, none twice, none outside).
     MergeStats(merge_stats::MergeStatsArgs),
+    /// Join numbered frames that shards wrote (`render --frames -o
+    /// out/frame_####.png` in a SLURM array or an Indexed Job) into one
+    /// movie (.mp4, .webm, .gif), in frame order: every frame of --frames,
+    /// else from the lowest number on disk to the highest; a gap is refused
+    /// in one line naming the first missing frame.
+    Encode(encode::EncodeArgs),
     /// Read every frame of a trajectory (or a file of several models) and
     /// print, per frame, its simulation time and the mean position of its
     /// atoms, as CSV; --atoms adds the positions of atoms by their index in
@@ -113,6 +120,27 @@ pub fn finish(ctx: &Context) -> Result<()> {
 #[error("interrupted")]
 pub struct Interrupted;
 
+/// A flag that Ctrl-C, SIGTERM and SIGHUP (scancel, a pod's deletion, a
+/// closed terminal) raise, for a batch to stop between frames so that no
+/// temporary file is left; `what` says what stops ("after the frame in
+/// flight"). A second signal leaves at once: files are renamed into place
+/// whole, so none is half-written, and a movie's encoder is stopped and
+/// its temporary file removed.
+pub fn stop_flag(what: &'static str) -> Result<std::sync::Arc<std::sync::atomic::AtomicBool>> {
+    use anyhow::Context as _;
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flag = std::sync::Arc::clone(&stop);
+    ctrlc::set_handler(move || {
+        if flag.swap(true, std::sync::atomic::Ordering::SeqCst) {
+            isomarch::movie::abandon_all();
+            std::process::exit(130);
+        }
+        eprintln!("\nstopping {what} (Ctrl-C again to quit now)");
+    })
+    .context("installing the signal handler")?;
+    Ok(stop)
+}
+
 pub fn run(cli: Cli) -> Result<()> {
     isomarch::render::check_environment()?;
     match cli.command {
@@ -126,6 +154,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Scaling(args) => scaling::run(args),
         Command::MergeStats(args) => merge_stats::run(args),
         Command::Frames(args) => frames::run(args),
+        Command::Encode(args) => encode::run(args),
     }
 }
 

@@ -1,7 +1,6 @@
 //! `isomarch render`: one frame, or a batch of frames (`--frames`).
 
 use std::path::PathBuf;
-use std::sync::Arc;
 
 use anyhow::{Context as _, Result, bail};
 use clap::Args;
@@ -23,14 +22,23 @@ pub struct BatchArgs {
     /// Render a sequence of frames, in Rust range syntax: 0..100 excludes
     /// 100, 0..=99 includes 99. Each PNG is written whole or not at all;
     /// Ctrl-C (or SIGTERM, as from scancel) stops after the frame in flight.
+    /// With -o movie.mp4 (H.264), .webm (VP9) or .gif, the frames go to one
+    /// movie as they are rendered (MP4 and WebM through ffmpeg), written
+    /// whole or not at all.
     #[arg(long, value_name = "RANGE")]
     frames: Option<isomarch::batch::FrameRange>,
     /// Scene time in seconds of a single frame (animated scenes).
     #[arg(long, default_value_t = 0.0, conflicts_with = "frames")]
     time: f64,
-    /// Frames per second: frame n is at scene time n / fps.
+    /// Frames per second: frame n is at scene time n / fps, and a movie
+    /// plays at this rate.
     #[arg(long, default_value_t = 25.0, requires = "frames")]
     fps: f64,
+    /// A movie's quality (-o .mp4 or .webm): each codec's constant rate
+    /// factor, from highest (largest file) to low; good is H.264's CRF 23
+    /// and VP9's 31.
+    #[arg(long, value_enum, default_value_t, requires = "frames")]
+    quality: isomarch::movie::Quality,
     /// Render only shard I of N (from 0): the frames whose number modulo N
     /// is I. Default: from SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN of
     /// SLURM_ARRAY_TASK_COUNT, or JOB_COMPLETION_INDEX of --shard-count;
@@ -43,7 +51,9 @@ pub struct BatchArgs {
     /// Keep frames already on disk (resume an interrupted batch).
     #[arg(long, requires = "frames")]
     skip_existing: bool,
-    /// Per-frame statistics, appended (default: frames.csv beside the frames).
+    /// Per-frame statistics, appended (default: frames.csv beside the
+    /// frames); a movie's are written whole with it (default: the movie's
+    /// name and .csv, e.g. adk.mp4.csv).
     #[arg(long, value_name = "CSV", requires = "frames")]
     csv: Option<PathBuf>,
 }
@@ -61,8 +71,9 @@ pub struct RenderArgs {
     #[command(flatten)]
     play: PlayArgs,
     /// Shaded image: PNG, or the linear image as 32-bit float OpenEXR
-    /// (.exr; with --aov and no --aov-output, the AOVs go in the same file).
-    /// The format follows the extension; any other is refused.
+    /// (.exr; with --aov and no --aov-output, the AOVs go in the same file);
+    /// with --frames, a pattern (out/frame_####.png) or a movie (.mp4,
+    /// .webm, .gif). The format follows the extension; any other is refused.
     #[arg(short, long)]
     output: PathBuf,
     /// Image size as WxH, overriding the scene's camera.resolution.
@@ -132,25 +143,34 @@ enum Plan {
     Batch(Batch),
 }
 
-/// `render --frames`: a batch of PNGs and their statistics CSV.
+/// `render --frames`: a batch of PNGs, or a movie, and their statistics CSV.
 struct Batch {
     job: RenderJob,
     stager: Option<Stager>,
-    pattern: String,
+    to: BatchOutput,
     range: isomarch::batch::FrameRange,
     fps: f64,
     shard: isomarch::batch::Shard,
-    skip_existing: bool,
     csv: PathBuf,
     gpu: GpuArgs,
+}
+
+/// Where `render --frames` writes.
+enum BatchOutput {
+    Files { pattern: String, skip_existing: bool },
+    Movie(isomarch::movie::MovieSpec),
 }
 
 impl TryFrom<RenderArgs> for Plan {
     type Error = anyhow::Error;
 
     fn try_from(args: RenderArgs) -> Result<Plan> {
-        // The look's flags are checked before any file is read.
+        // The look's flags are checked before any file is read, and so is
+        // a movie's encoder (and its size, where given).
         let effects = effects(&args)?;
+        if args.batch.frames.is_some() {
+            isomarch::movie::check(&args.output, args.size)?;
+        }
         let mut input = args.flags.open(&args.scene, args.trajectory.as_deref(), &args.play)?;
         let legend = match args.legend {
             false => None,
@@ -219,11 +239,15 @@ impl Batch {
             );
         }
         let fps = checks::fps(batch.fps)?;
-        let pattern = output.to_string_lossy().into_owned();
-        isomarch::batch::frame_path(&pattern, range.start)?;
         let shard = isomarch::batch::Shard::resolve(batch.shard.as_deref(), batch.shard_count, |k| std::env::var(k).ok())?;
-        let csv = batch.csv.unwrap_or_else(|| {
-            output.parent().filter(|p| !p.as_os_str().is_empty()).map_or_else(|| PathBuf::from("frames.csv"), |p| p.join("frames.csv"))
+        let movie = isomarch::movie::Container::of(&output).is_some();
+        let csv = batch.csv.unwrap_or_else(|| match movie {
+            true => {
+                let mut name = output.clone().into_os_string();
+                name.push(".csv");
+                PathBuf::from(name)
+            }
+            false => output.parent().filter(|p| !p.as_os_str().is_empty()).map_or_else(|| PathBuf::from("frames.csv"), |p| p.join("frames.csv")),
         });
         FileFormat::of("--csv", &csv, &[FileFormat::Csv])?;
         let method = scene.marching.method;
@@ -233,44 +257,75 @@ impl Batch {
             transparent_background: args.transparent_background,
             effects,
             results: false,
-            ..RenderJob::new(scene, method, size, output, args.flags.gpu.timeout()?)
+            ..RenderJob::new(scene, method, size, output.clone(), args.flags.gpu.timeout()?)
         };
-        // The pattern's format, and a legend only on PNG with a background,
-        // as a single frame's outputs are checked.
-        job.outputs()?;
+        let to = if movie {
+            let flag = |given: bool, name: &str| match given {
+                true => bail!(
+                    "-o {}: a movie is written whole by one process, so {name} does not apply: render numbered PNGs (-o out/frame_####.png) and join them with `isomarch encode`",
+                    output.display()
+                ),
+                false => Ok(()),
+            };
+            flag(batch.skip_existing, "--skip-existing")?;
+            flag(shard != isomarch::batch::Shard::ALL, "a shard (--shard, a SLURM array or an Indexed Job)")?;
+            if job.transparent_background {
+                bail!("-o {}: a movie has no transparent background: write PNGs (-o out/frame_####.png)", output.display());
+            }
+            if csv == output {
+                bail!("--csv {}: is the movie itself", csv.display());
+            }
+            let size = isomarch::batch::movie_frame_size(&job);
+            let spec = isomarch::movie::MovieSpec::new(&output, fps, batch.quality, size)?.context("a movie's extension")?;
+            BatchOutput::Movie(spec)
+        } else {
+            let pattern = output.to_string_lossy().into_owned();
+            isomarch::batch::frame_path(&pattern, range.start)?;
+            // The pattern's format, and a legend only on PNG with a background,
+            // as a single frame's outputs are checked.
+            job.outputs()?;
+            BatchOutput::Files { pattern, skip_existing: batch.skip_existing }
+        };
         isomarch::render::light::check_method(&job.scene, job.method)?;
-        Ok(Batch { job, stager, pattern, range, fps, shard, skip_existing: batch.skip_existing, csv, gpu: args.flags.gpu })
+        Ok(Batch { job, stager, to, range, fps, shard, csv, gpu: args.flags.gpu })
     }
 
     fn run(self) -> Result<()> {
-        let Batch { job, stager, pattern, range, fps, shard, skip_existing, csv, gpu } = self;
-        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
-        let flag = Arc::clone(&stop);
-        // Ctrl-C, and SIGTERM and SIGHUP (scancel, a pod's deletion, a closed
-        // terminal): stop between frames, so that no temporary file is left.
-        ctrlc::set_handler(move || {
-            if flag.swap(true, std::sync::atomic::Ordering::SeqCst) {
-                // A second signal: leave now. Files are renamed into
-                // place whole, so none is half-written.
-                std::process::exit(130);
-            }
-            eprintln!("\nstopping after the frame in flight (Ctrl-C again to quit now)");
-        })
-        .context("installing the signal handler")?;
+        let Batch { job, stager, to, range, fps, shard, csv, gpu } = self;
+        let stop = super::stop_flag("after the frame in flight")?;
         let gpu = gpu.open()?;
         method_note(&job.scene, job.method);
-        let s = isomarch::batch::run(&gpu.ctx, &job, stager, &pattern, range, fps, shard, skip_existing, &csv, &stop)?;
-        eprintln!(
-            "{} rendered, {} kept from disk (shard {}/{}); statistics in {}",
-            count(s.rendered, "frame"),
-            s.skipped,
-            shard.index,
-            shard.count,
-            csv.display()
-        );
+        let sink = match &to {
+            BatchOutput::Files { pattern, skip_existing } => isomarch::batch::Sink::Files { pattern, skip_existing: *skip_existing },
+            BatchOutput::Movie(spec) => isomarch::batch::Sink::Movie(spec),
+        };
+        let s = isomarch::batch::run(&gpu.ctx, &job, stager, sink, range, fps, shard, &csv, &stop)?;
+        match &to {
+            BatchOutput::Movie(spec) if !s.interrupted => eprintln!(
+                "{}: {} at {} fps ({}x{}); statistics in {}",
+                spec.path.display(),
+                count(s.rendered, "frame"),
+                spec.fps,
+                isomarch::batch::movie_frame_size(&job).0,
+                isomarch::batch::movie_frame_size(&job).1,
+                csv.display()
+            ),
+            BatchOutput::Movie(_) => {}
+            BatchOutput::Files { .. } => eprintln!(
+                "{} rendered, {} kept from disk (shard {}/{}); statistics in {}",
+                count(s.rendered, "frame"),
+                s.skipped,
+                shard.index,
+                shard.count,
+                csv.display()
+            ),
+        }
         finish(&gpu.ctx)?;
         if s.interrupted {
-            eprintln!("interrupted: rerun with --skip-existing to render the rest");
+            match to {
+                BatchOutput::Movie(spec) => eprintln!("interrupted: {} not written", spec.path.display()),
+                BatchOutput::Files { .. } => eprintln!("interrupted: rerun with --skip-existing to render the rest"),
+            }
             return Err(Interrupted.into());
         }
         Ok(())

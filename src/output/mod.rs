@@ -171,15 +171,27 @@ pub struct Look<'a> {
 /// as `look` says.
 pub fn shaded_bytes(frame: &Frame, format: FileFormat, aovs: &[Aov], look: Look) -> Result<Vec<u8>> {
     match format {
-        FileFormat::Png => match (look.legend, look.transparent) {
-            (Some(_), Some(_)) => bail!("--legend and --transparent-background cannot be drawn together"),
-            (Some(bar), None) => png_bytes(&with_color_bar(&frame.shaded(), bar)),
-            (None, Some(bg)) => png_bytes(&frame.shaded_rgba(bg)),
-            (None, None) => png_bytes(&frame.shaded()),
+        FileFormat::Png => match look.transparent {
+            Some(_) if look.legend.is_some() => bail!("--legend and --transparent-background cannot be drawn together"),
+            Some(bg) => png_bytes(&frame.shaded_rgba(bg)),
+            None => png_bytes(&shaded_rgb(frame, look)?),
         },
         FileFormat::Exr => exr_layers(frame, true, aovs, look.transparent),
         other => bail!("an image cannot be written as .{}", other.extension()),
     }
+}
+
+/// The frame's shaded image over its background, 8-bit sRGB, with the
+/// legend under it where `look` has one: a PNG's pixels, and a movie's
+/// frame. A transparent background has no RGB image.
+pub fn shaded_rgb(frame: &Frame, look: Look) -> Result<image::RgbImage> {
+    if look.transparent.is_some() {
+        bail!("a transparent background needs an alpha channel: PNG or EXR");
+    }
+    Ok(match look.legend {
+        Some(bar) => with_color_bar(&frame.shaded(), bar),
+        None => frame.shaded(),
+    })
 }
 
 /// Encodes an image (RGB, or RGBA for a transparent background) as PNG bytes.

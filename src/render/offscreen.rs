@@ -201,14 +201,16 @@ impl RenderJob {
 
     /// Whether the job needs no more than the frame's 8-bit image: no
     /// per-ray results asked for, no heatmap, AOVs or OpenEXR, an opaque
-    /// background. [`march_image`] then makes the frame on the GPU where
-    /// it can (render::frame).
+    /// background; a PNG, or a movie's frame (made as the PNGs of the
+    /// same batch are, so that `encode` of them gives the same movie).
+    /// [`march_image`] then makes the frame on the GPU where it can
+    /// (render::frame).
     pub fn image_only(&self) -> bool {
         !self.results
             && self.heatmap.is_none()
             && self.aovs.is_empty()
             && !self.transparent_background
-            && self.outputs().is_ok_and(|o| o.image == FileFormat::Png)
+            && (self.outputs().is_ok_and(|o| o.image == FileFormat::Png) || crate::movie::Container::of(&self.output).is_some())
     }
 }
 
