@@ -38,8 +38,8 @@ use crate::layout::{self, GpuLook, GpuMarchState, GpuRay, GpuResult};
 use crate::method::Method;
 use crate::output::MarchStats;
 use crate::render::offscreen::{DepthCue, Effects, SAMPLE_SEED};
-use crate::render::rays::PIXEL_TILE;
-use crate::scene::{Projection, Scene};
+use crate::render::rays::{ImagePlane, PIXEL_TILE};
+use crate::scene::Scene;
 
 /// What a frame's submission read back: the image, the statistics' words,
 /// the last sample's rays and results where kept, the GPU time.
@@ -143,15 +143,7 @@ pub struct GpuFrame {
 /// makes them (`camera_rays_through`'s arithmetic), with the look.
 fn look_of(scene: &Scene, (width, height): (u32, u32), samples: u32, effects: &Effects) -> GpuLook {
     let cam = &scene.camera;
-    let forward = (cam.target - cam.eye).normalize();
-    let right = forward.cross(cam.up).normalize();
-    let up = right.cross(forward);
-    let ortho = match cam.projection {
-        Projection::Perspective => None,
-        Projection::Orthographic { height } => Some(height),
-    };
-    let half_h = ortho.map_or_else(|| (0.5 * cam.fov_y_deg.to_radians()).tan(), |h| 0.5 * h);
-    let half_w = half_h * f64::from(width) / f64::from(height);
+    let ImagePlane { forward, right, up, ortho, half_w, half_h } = ImagePlane::of(cam, width, height);
     let depths = DepthCue::range(&scene.bounds, cam);
     let (cue_start, cue_end) =
         effects.depth_cue.map_or((0.0, 0.0), |c| (depths.0 + c.start * (depths.1 - depths.0), depths.0 + c.end * (depths.1 - depths.0)));

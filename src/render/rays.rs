@@ -119,20 +119,39 @@ pub fn subpixel(pixel: u32, s: u32, n: u32, seed: u32) -> (f64, f64) {
     ((f64::from(x) + jx) / f64::from(n), (f64::from(y) + jy) / f64::from(n))
 }
 
+/// A camera's image plane for a `width` x `height` frame: the camera's unit
+/// axes, and half the plane's width and height. Perspective: the plane at
+/// distance 1; orthographic (`ortho`, its height): the plane through the
+/// eye, every ray along `forward`. The host's camera rays and the shader's
+/// (render::frame) start from these numbers.
+pub struct ImagePlane {
+    pub forward: DVec3,
+    pub right: DVec3,
+    pub up: DVec3,
+    pub ortho: Option<f64>,
+    pub half_w: f64,
+    pub half_h: f64,
+}
+
+impl ImagePlane {
+    pub fn of(cam: &Camera, width: u32, height: u32) -> ImagePlane {
+        let forward = (cam.target - cam.eye).normalize();
+        let right = forward.cross(cam.up).normalize();
+        let up = right.cross(forward);
+        let ortho = match cam.projection {
+            Projection::Perspective => None,
+            Projection::Orthographic { height } => Some(height),
+        };
+        let half_h = ortho.map_or_else(|| (0.5 * cam.fov_y_deg.to_radians()).tan(), |h| 0.5 * h);
+        let half_w = half_h * f64::from(width) / f64::from(height);
+        ImagePlane { forward, right, up, ortho, half_w, half_h }
+    }
+}
+
 /// [`camera_rays`] through the point `at(pixel)` of each pixel (from its
 /// top-left corner, in pixels).
 pub fn camera_rays_through(cam: &Camera, width: u32, height: u32, bounds: &Aabb, at: impl Fn(u32) -> (f64, f64)) -> (Vec<GpuRay>, Vec<Option<u32>>) {
-    let forward = (cam.target - cam.eye).normalize();
-    let right = forward.cross(cam.up).normalize();
-    let up = right.cross(forward);
-    // Perspective: the image plane at distance 1; orthographic: the plane
-    // through the eye, `height` high, every ray along `forward`.
-    let ortho = match cam.projection {
-        Projection::Perspective => None,
-        Projection::Orthographic { height } => Some(height),
-    };
-    let half_h = ortho.map_or_else(|| (0.5 * cam.fov_y_deg.to_radians()).tan(), |h| 0.5 * h);
-    let half_w = half_h * f64::from(width) / f64::from(height);
+    let ImagePlane { forward, right, up, ortho, half_w, half_h } = ImagePlane::of(cam, width, height);
     let tiles_x = width.div_ceil(PIXEL_TILE);
     let tiles_y = height.div_ceil(PIXEL_TILE);
     let n = (tiles_x * tiles_y * PIXEL_TILE * PIXEL_TILE) as usize;
