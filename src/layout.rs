@@ -151,9 +151,10 @@ gpu_structs! {
     struct GpuLight { dir: Vec4, color: Vec4 }
 
     /// The camera and the look of a frame made on the GPU (look.comp,
-    /// src/render/frame.rs). `eye.xyz` the eye, `eye.w` half the image
-    /// plane's width; `right`, `up`, `forward` the camera's unit axes, with
-    /// `right.w` half its height and `up.w` 1 for an orthographic camera;
+    /// src/render/frame.rs). `eye.xyz` the eye; `right`, `up`, `forward`
+    /// the camera's unit axes, with `up.w` 1 for an orthographic camera
+    /// (`eye.w` and `right.w` unused: the rays are made from the f64 copies
+    /// below);
     /// `box_min`, `box_max` the scene's bounds, with `box_min.w` and
     /// `box_max.w` the view depths where depth cueing starts and ends;
     /// `background.rgb` the background (linear), `background.w` 1 for a

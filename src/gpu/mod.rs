@@ -11,7 +11,7 @@ mod transfer;
 
 pub use buffer::{Buffer, Role};
 pub use context::{Context, ContextOptions, DeviceInfo, list_devices};
-pub use pipeline::ComputePipeline;
+pub use pipeline::{ComputePipeline, bind_compute};
 #[cfg(feature = "window")]
 pub use present::{Presented, Presenter};
 pub use submit::{GpuError, Submitter};

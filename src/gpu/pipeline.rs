@@ -150,6 +150,26 @@ impl ComputePipeline {
     }
 }
 
+/// Records the binding of a compute pipeline and its one descriptor set
+/// (`handles`), and `push` as its push constants.
+///
+/// # Safety
+/// `cmd` is recording on `d`; the pipeline, its layout and set are alive,
+/// and the layout's push range holds `push`.
+pub unsafe fn bind_compute(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    (pipeline, layout, set): (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet),
+    push: &[u32],
+) {
+    // SAFETY: as the caller promises.
+    unsafe {
+        d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+        d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
+        d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(push));
+    }
+}
+
 impl Drop for ComputePipeline {
     fn drop(&mut self) {
         if self.ctx.is_hung() {

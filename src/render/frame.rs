@@ -151,8 +151,8 @@ fn look_of(scene: &Scene, (width, height): (u32, u32), samples: u32, effects: &E
     let (outline_color, threshold, outline_width) =
         effects.outline.map_or(([0.0; 3], 0.0, 0), |o| (o.color, o.jump * (depths.1 - depths.0), o.width));
     GpuLook {
-        eye: v(cam.eye, half_w),
-        right: v(right, half_h),
+        eye: v(cam.eye, 0.0),
+        right: v(right, 0.0),
         up: v(up, f64::from(u8::from(ortho.is_some()))),
         forward: v(forward, 0.0),
         box_min: v(scene.bounds.min, cue_start),
@@ -279,7 +279,7 @@ impl Renderer {
         self.ensure_frame_buffers(rays, pixels)?;
         let look = self.look.as_mut().expect("made above");
         look.look.write(0, &[look_of(scene, (width, height), samples, effects)])?;
-        let through = self.tiles.as_ref().is_some_and(|t| t.frame.is_some()) && self.tiles_apply(method, &options);
+        let through = self.through_tiles(method, &options);
         let deadline = Instant::now() + self.timeout;
         let lit = light::wanted(scene, &options);
         if lit {
@@ -404,13 +404,10 @@ impl Renderer {
             // `count` invocations, but the gate's one (its count is the rays').
             let look_pass = |pass: u32, sample: u32, count: u32, batch: u32| {
                 let invocations = if pass == layout::LOOK_PASS_GATE { 1 } else { count as usize };
-                let (pipeline, layout, set) = passes[pass as usize];
                 // SAFETY: look.comp's pipeline for `pass`, bound to live
                 // buffers.
                 unsafe {
-                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-                    d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
-                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&[pass, sample, count, batch]));
+                    crate::gpu::bind_compute(d, cmd, passes[pass as usize], &[pass, sample, count, batch]);
                     d.cmd_dispatch(cmd, groups(invocations), 1, 1);
                 }
                 after_compute(shader.0 | vk::PipelineStageFlags::DRAW_INDIRECT, shader.1 | vk::AccessFlags::INDIRECT_COMMAND_READ);
@@ -418,7 +415,6 @@ impl Renderer {
             // A march of every ray in `rays`: a first slice, gated slices,
             // and the check that none is still marching.
             let march = |m: &Marcher| {
-                let (pipeline, layout, set) = m.handles;
                 for slice in 0..m.slices {
                     if slice > 0 {
                         look_pass(layout::LOOK_PASS_GATE, 0, n_rays, 0);
@@ -427,10 +423,7 @@ impl Renderer {
                     // sized for `rays`; the indirect buffer was written by
                     // the gate.
                     unsafe {
-                        d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-                        d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
-                        let push = [n_rays, u32::from(slice == 0), m.slice_steps, 0];
-                        d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&push));
+                        crate::gpu::bind_compute(d, cmd, m.handles, &[n_rays, u32::from(slice == 0), m.slice_steps, 0]);
                         if slice > 0 {
                             d.cmd_dispatch_indirect(cmd, indirect, 0);
                         } else {
@@ -482,22 +475,14 @@ impl Renderer {
         let look = self.look.as_mut().expect("made above");
         look.look.write(0, &[look_of(scene, (width, height), samples, &Effects::default())])?;
         let camera = &look.pipelines[layout::LOOK_PASS_CAMERA as usize];
-        let (lp, ll, ls) = (camera.pipeline, camera.layout, camera.set);
+        let handles = (camera.pipeline, camera.layout, camera.set);
         let read = self.transfers.fetch::<GpuRay>(&self.rays, 0, rays)?;
         let deadline = Instant::now() + self.timeout;
         self.submitter.run_with(deadline, self.timeout, &mut self.transfers, |d, cmd| {
             // SAFETY: look.comp's pipeline, bound to live buffers sized for
             // the rays.
             unsafe {
-                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, lp);
-                d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, ll, 0, &[ls], &[]);
-                d.cmd_push_constants(
-                    cmd,
-                    ll,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    bytemuck::cast_slice(&[layout::LOOK_PASS_CAMERA, sample, rays as u32, 0]),
-                );
+                crate::gpu::bind_compute(d, cmd, handles, &[layout::LOOK_PASS_CAMERA, sample, rays as u32, 0]);
                 d.cmd_dispatch(cmd, rays.div_ceil(WORKGROUP) as u32, 1, 1);
             }
         })?;

@@ -860,13 +860,11 @@ impl Renderer {
         let cold = std::mem::take(&mut self.cold);
         let deadline = Instant::now() + self.timeout;
         self.submitter.run(deadline, self.timeout, |d, cmd| {
-            for &((pipeline, layout, set), push) in &cold {
+            for &(handles, push) in &cold {
                 // SAFETY: as in `dispatch`; no invocation reads or writes a
                 // buffer.
                 unsafe {
-                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-                    d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
-                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::cast_slice(&push));
+                    crate::gpu::bind_compute(d, cmd, handles, &push);
                     d.cmd_dispatch(cmd, 1, 1, 1);
                 }
             }
@@ -994,12 +992,18 @@ impl Renderer {
     /// order from ray `first_ray` (a multiple of 64: whole tiles): through
     /// the lists where they were built for this method, else the grid.
     pub fn march_camera(&mut self, method: Method, options: MarchOptions, rays: &[GpuRay], first_ray: usize) -> Result<MarchOutput> {
-        let through = self.tiles.as_ref().is_some_and(|t| t.frame.is_some()) && self.tiles_apply(method, &options);
-        if !through {
+        if !self.through_tiles(method, &options) {
             return self.march(method, options, rays, |_| {});
         }
         anyhow::ensure!(first_ray.is_multiple_of(WORKGROUP), "camera rays from ray {first_ray}: not a whole tile");
         self.march_with(method, options, rays, Some(first_ray), |_| {})
+    }
+
+    /// Whether camera rays of the frame prepared ([`Renderer::prepare_camera`])
+    /// marched by `method` with `options` walk its tile lists: they were
+    /// built, and they apply ([`Renderer::tiles_apply`]).
+    fn through_tiles(&self, method: Method, options: &MarchOptions) -> bool {
+        self.tiles.as_ref().is_some_and(|t| t.frame.is_some()) && self.tiles_apply(method, options)
     }
 
     /// Whether camera rays marched by `method` with `options` take their
