@@ -54,6 +54,7 @@ fn run() -> Result<(), String> {
         ("layout.glsl", layout::glsl()),
         ("layout_bindings.glsl", layout::glsl_bindings_file()),
         ("look_bindings.glsl", layout::glsl_look_bindings_file()),
+        ("tiles_bindings.glsl", layout::glsl_tiles_bindings_file()),
     ] {
         let path = out.join(name);
         std::fs::write(&path, text).map_err(|e| format!("writing {name}: {e}"))?;

@@ -175,6 +175,20 @@ gpu_structs! {
         eye64: UVec4, eye64_z: UVec4, right64: UVec4, right64_z: UVec4, up64: UVec4, up64_z: UVec4, forward64: UVec4, forward64_z: UVec4,
         min64: UVec4, min64_z: UVec4, max64: UVec4, max64_z: UVec4,
     }
+
+    /// The camera's tile lists built on the GPU (tiles.comp,
+    /// src/render/tile_build.rs): the view as `render::tiles` makes it, in
+    /// f64 bits (each `*64` pair: a vector's x and y, then its z and one
+    /// more number: `eye64_z.zw` half the image plane's width at distance 1,
+    /// `forward64_z.zw` half its height); `sizes`: width, height, tiles per
+    /// row, tile rows; `counts`: primitives, groups, the entries' capacity,
+    /// lists (tiles times groups); `halves`: where the second half of the
+    /// sort's keys and values starts, the first word of the scan's
+    /// partials, the entries sort's result half (0 or `halves.x`), unused.
+    struct GpuTileBuild {
+        eye64: UVec4, eye64_z: UVec4, forward64: UVec4, forward64_z: UVec4, right64: UVec4, right64_z: UVec4, up64: UVec4, up64_z: UVec4,
+        sizes: UVec4, counts: UVec4, halves: UVec4,
+    }
 }
 
 /// Primitive kinds (`GpuPrimitive::ids.x`).
@@ -317,6 +331,37 @@ pub const TILE_PAD: f32 = 1e-5;
 /// its tile the support may cover (src/render/tiles.rs).
 pub const TILE_PIXEL_BITS: u32 = 12;
 
+/// tiles.comp's passes (src/render/tile_build.rs), one pipeline each,
+/// chosen by the specialization constant `TILE_PASS_CONSTANT`.
+pub const TILE_PASS_PROJECT: u32 = 0;
+pub const TILE_PASS_HISTOGRAM: u32 = 1;
+pub const TILE_PASS_SCAN_REDUCE: u32 = 2;
+pub const TILE_PASS_SCAN_TOP: u32 = 3;
+pub const TILE_PASS_SCAN_DOWN: u32 = 4;
+pub const TILE_PASS_SCATTER: u32 = 5;
+pub const TILE_PASS_COUNT: u32 = 6;
+pub const TILE_PASS_TOTAL: u32 = 7;
+pub const TILE_PASS_EMIT: u32 = 8;
+pub const TILE_PASS_RANGES: u32 = 9;
+pub const TILE_PASS_GATHER: u32 = 10;
+pub const TILE_PASS_STATS: u32 = 11;
+pub const TILE_PASSES: u32 = 12;
+/// The specialization constant that picks tiles.comp's pass (`TILE_PASS`).
+pub const TILE_PASS_CONSTANT: u32 = 21;
+/// Values a workgroup of tiles.comp's prefix sum takes (64 invocations,
+/// 16 each).
+pub const TILE_SCAN_BLOCK: u32 = 1024;
+/// tiles.comp's statistics (`tile_stats`): the entries made (more than the
+/// capacity when it overflowed), the longest list, the most entries of one
+/// tile (all its groups' lists).
+pub const TILE_STAT_ENTRIES: u32 = 0;
+pub const TILE_STAT_LONGEST: u32 = 1;
+pub const TILE_STAT_CROWD: u32 = 2;
+pub const TILE_STAT_WORDS: u32 = 4;
+/// `push.count` of a pass over the entries: as many as were made (at most
+/// the capacity), which only the GPU knows.
+pub const TILE_COUNT_ENTRIES: u32 = 0xffff_ffff;
+
 /// Float constants shared with GLSL, as `(name, value)`.
 pub const GLSL_FLOAT_CONSTANTS: &[(&str, f32)] = &[
     ("CELL_PAD", CELL_PAD),
@@ -403,6 +448,25 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("SCAN_BLOCK", SCAN_BLOCK),
     ("SKIP_CELLS", SKIP_CELLS),
     ("TILE_PIXEL_BITS", TILE_PIXEL_BITS),
+    ("TILE_PASS_PROJECT", TILE_PASS_PROJECT),
+    ("TILE_PASS_HISTOGRAM", TILE_PASS_HISTOGRAM),
+    ("TILE_PASS_SCAN_REDUCE", TILE_PASS_SCAN_REDUCE),
+    ("TILE_PASS_SCAN_TOP", TILE_PASS_SCAN_TOP),
+    ("TILE_PASS_SCAN_DOWN", TILE_PASS_SCAN_DOWN),
+    ("TILE_PASS_SCATTER", TILE_PASS_SCATTER),
+    ("TILE_PASS_COUNT", TILE_PASS_COUNT),
+    ("TILE_PASS_TOTAL", TILE_PASS_TOTAL),
+    ("TILE_PASS_EMIT", TILE_PASS_EMIT),
+    ("TILE_PASS_RANGES", TILE_PASS_RANGES),
+    ("TILE_PASS_GATHER", TILE_PASS_GATHER),
+    ("TILE_PASS_STATS", TILE_PASS_STATS),
+    ("TILE_PASS_CONSTANT", TILE_PASS_CONSTANT),
+    ("TILE_SCAN_BLOCK", TILE_SCAN_BLOCK),
+    ("TILE_STAT_ENTRIES", TILE_STAT_ENTRIES),
+    ("TILE_STAT_LONGEST", TILE_STAT_LONGEST),
+    ("TILE_STAT_CROWD", TILE_STAT_CROWD),
+    ("TILE_STAT_WORDS", TILE_STAT_WORDS),
+    ("TILE_COUNT_ENTRIES", TILE_COUNT_ENTRIES),
 ];
 
 /// How a kernel may use a storage buffer.
@@ -621,6 +685,35 @@ pub const LOOK_BINDINGS: &[Binding] = &[
     },
 ];
 
+/// The bindings of tiles.comp, which builds the camera's tile lists on
+/// the GPU (src/render/tile_build.rs).
+pub const TILES_BINDINGS: &[Binding] = &[
+    Binding {
+        index: 0,
+        resource: Resource::Uniform(Block { access: Access::ReadOnly, name: "TileBuildBuffer", member: "GpuTileBuild build" }),
+        probe: None,
+        doc: &[],
+    },
+    Binding { doc: &["The march's primitives (binding 1 of the march)."], ..buffer(1, Access::ReadOnly, "PrimitiveBuffer", "GpuPrimitive prims[]") },
+    Binding {
+        doc: &["Per primitive: its pixels' columns x0 | x1 << 16, rows y0 | y1 << 16, its", "depth word (pixel bits 0), and its tiles (0: none)."],
+        ..buffer(2, Access::ReadWrite, "PrimTileBuffer", "uvec4 prim_tiles[]")
+    },
+    Binding { doc: &["The radix sort's keys, two halves (build.halves.x)."], ..buffer(3, Access::ReadWrite, "KeyBuffer", "uint sort_keys[]") },
+    Binding { doc: &["The radix sort's values, two halves."], ..buffer(4, Access::ReadWrite, "ValueBuffer", "uint sort_values[]") },
+    Binding {
+        doc: &["The prefix sums' values (histograms, tile counts), then their partials", "(from build.halves.y)."],
+        ..buffer(5, Access::ReadWrite, "ScanBuffer", "uint scan[]")
+    },
+    Binding {
+        doc: &["The entries as made, primitive by primitive in depth order (an entry as", "the lists hold it)."],
+        ..buffer(6, Access::ReadWrite, "EmittedBuffer", "uvec2 emitted[]")
+    },
+    Binding { doc: &["The lists' starts (the march's cell_texels)."], ..buffer(7, Access::ReadWrite, "StartBuffer", "uint list_starts[]") },
+    Binding { doc: &["The lists' entries (the march's entry_texels)."], ..buffer(8, Access::ReadWrite, "EntryBuffer", "uvec2 list_entries[]") },
+    Binding { doc: &["TILE_STAT_* words."], ..buffer(9, Access::ReadWrite, "TileStatBuffer", "uint tile_stats[]") },
+];
+
 /// look.comp's passes (its push constant `pass`).
 pub const LOOK_PASS_CAMERA: u32 = 0;
 pub const LOOK_PASS_SAMPLE: u32 = 1;
@@ -719,6 +812,17 @@ pub fn glsl_look_bindings_file() -> String {
         "// Generated by shaders/build.rs from src/layout.rs: do not edit.\n#ifndef LOOK_BINDINGS_GLSL\n#define LOOK_BINDINGS_GLSL\n#include \"layout.glsl\"\n",
     );
     s.push_str(&glsl_bindings_of(LOOK_BINDINGS));
+    s.push_str("#endif\n");
+    s
+}
+
+/// The whole generated `tiles_bindings.glsl`: tiles.comp's bindings
+/// ([`TILES_BINDINGS`]).
+pub fn glsl_tiles_bindings_file() -> String {
+    let mut s = String::from(
+        "// Generated by shaders/build.rs from src/layout.rs: do not edit.\n#ifndef TILES_BINDINGS_GLSL\n#define TILES_BINDINGS_GLSL\n#include \"layout.glsl\"\n",
+    );
+    s.push_str(&glsl_bindings_of(TILES_BINDINGS));
     s.push_str("#endif\n");
     s
 }

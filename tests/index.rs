@@ -18,7 +18,7 @@ use rand_pcg::Pcg64Mcg;
 
 /// `n` compact blobs (radius 0.8 to 1.2) at a fixed density (mean spacing
 /// 1.6) in a cube, split into `groups` groups combined by max.
-fn particles(n: usize, groups: usize, seed: u64) -> Scene {
+pub(crate) fn particles(n: usize, groups: usize, seed: u64) -> Scene {
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
     let side = 1.6 * (n as f64).cbrt();
     let mut g: Vec<Vec<_>> = vec![Vec::new(); groups];

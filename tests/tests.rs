@@ -34,5 +34,6 @@ mod scaling;
 mod scene_files;
 mod scene_input;
 mod selections;
+mod tile_build;
 mod trajectories;
 mod view_flags;

@@ -54,11 +54,13 @@ pub enum Kernel {
     Index,
     /// A frame's camera rays and image around the march (look.comp).
     Look,
+    /// The camera's tile lists built on the GPU (tiles.comp).
+    Tiles,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 9] = [
+    pub const ALL: [Kernel; 10] = [
         Kernel::March,
         Kernel::MarchIndexed,
         Kernel::MarchBracket,
@@ -68,6 +70,7 @@ impl Kernel {
         Kernel::BoundsIndexed,
         Kernel::Index,
         Kernel::Look,
+        Kernel::Tiles,
     ];
 
     /// The kernel's name: its source file's stem and its variant's suffix
@@ -83,6 +86,7 @@ impl Kernel {
             Kernel::BoundsIndexed => "bounds_indexed",
             Kernel::Index => "index",
             Kernel::Look => "look",
+            Kernel::Tiles => "tiles",
         }
     }
 

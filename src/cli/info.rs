@@ -14,6 +14,7 @@ pub fn run() -> Result<()> {
         println!("    timestamps:               {} ({} ns/tick)", d.timestamps, d.timestamp_period_ns);
         println!("    64-bit floats in shaders: {}", d.float64);
         println!("    subgroup arithmetic:      {}", d.subgroup_arithmetic);
+        println!("    subgroup ballots:         {} ({} lanes)", d.subgroup_ballot, d.subgroup_size);
         println!("    memory heaps:             {:?} MiB", d.memory_heaps_mib);
     }
     Ok(())

@@ -48,6 +48,11 @@ pub struct DeviceInfo {
     /// Subgroup sums in compute shaders (the frame's statistics summed on
     /// the GPU, render::frame).
     pub subgroup_arithmetic: bool,
+    /// Subgroup ballots in compute shaders (the tile lists' radix sort,
+    /// render::tile_build).
+    pub subgroup_ballot: bool,
+    /// Lanes of a subgroup.
+    pub subgroup_size: u32,
     pub memory_heaps_mib: Vec<u64>,
 }
 
@@ -128,6 +133,10 @@ fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice, index: usize) -> D
     let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let v = props.api_version;
     let heaps = mem.memory_heaps[..mem.memory_heap_count as usize].iter().map(|h| h.size >> 20).collect();
+    let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut subgroup);
+    // SAFETY: `pd` was enumerated from `instance`, a Vulkan 1.2 one.
+    unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
     let timestamps = props.limits.timestamp_compute_and_graphics == vk::TRUE
         || families.iter().any(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE) && f.timestamp_valid_bits > 0);
     DeviceInfo {
@@ -143,14 +152,11 @@ fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice, index: usize) -> D
         timestamp_period_ns: props.limits.timestamp_period,
         timestamps,
         float64: features.shader_float64 == vk::TRUE,
-        subgroup_arithmetic: {
-            let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
-            let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut subgroup);
-            // SAFETY: `pd` was enumerated from `instance`, a Vulkan 1.2 one.
-            unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
-            subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
-                && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::ARITHMETIC | vk::SubgroupFeatureFlags::BASIC)
-        },
+        subgroup_arithmetic: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+            && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::ARITHMETIC | vk::SubgroupFeatureFlags::BASIC),
+        subgroup_ballot: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+            && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::BALLOT),
+        subgroup_size: subgroup.subgroup_size,
         memory_heaps_mib: heaps,
     }
 }

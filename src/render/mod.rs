@@ -7,6 +7,7 @@ pub mod light;
 pub mod offscreen;
 pub mod optics;
 pub mod rays;
+pub mod tile_build;
 pub mod tiles;
 
 use std::collections::HashMap;
@@ -117,8 +118,8 @@ impl FoldCost {
     /// With the camera's tile lists: a walk reads at most its tile's list
     /// of every group (`crowd` entries at most, all groups together), and
     /// the skip to the first support as many.
-    fn tiles(grid: &GridSpec, lists: &tiles::TileLists) -> FoldCost {
-        let walk = grid.groups * 2 + lists.crowd.min(grid.groups * lists.longest) + grid.everywhere;
+    fn tiles(grid: &GridSpec, longest: usize, crowd: usize) -> FoldCost {
+        let walk = grid.groups * 2 + crowd.min(grid.groups * longest) + grid.everywhere;
         FoldCost { interval: walk, point: walk, cull: 0, skip: walk }
     }
 
@@ -281,6 +282,9 @@ pub struct Renderer {
     pipelines: HashMap<PipelineKey, ComputePipeline>,
     /// The camera's screen-space lists, for the frame they were built for.
     tiles: Option<CameraTiles>,
+    /// tiles.comp's pipelines and buffers, made with the first lists the
+    /// GPU builds.
+    tile_build: Option<tile_build::TileBuild>,
     submitter: Submitter,
     /// Uploads into and reads out of the device-local buffers, recorded
     /// into the next submission (gpu::Transfers).
@@ -310,7 +314,11 @@ pub struct Renderer {
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(600);
 
 /// The switches the environment may turn off to measure what they buy.
-pub const ENV_SWITCHES: [&str; 4] = ["ISOMARCH_INDEX", "ISOMARCH_BRACKET", "ISOMARCH_TILES", frame::GPU_FRAME_SWITCH];
+pub const ENV_SWITCHES: [&str; 5] = ["ISOMARCH_INDEX", "ISOMARCH_BRACKET", "ISOMARCH_TILES", frame::GPU_FRAME_SWITCH, TILE_BUILD_SWITCH];
+
+/// `ISOMARCH_TILE_BUILD=off` builds the camera's tile lists on the host
+/// (the reference) where the GPU could ([`Renderer::gpu_tiles_apply`]).
+pub const TILE_BUILD_SWITCH: &str = "ISOMARCH_TILE_BUILD";
 
 /// A switch of [`ENV_SWITCHES`]: on unless set to `off` (or `0`);
 /// `Err` names a value that is neither, which [`check_environment`]
@@ -350,8 +358,11 @@ struct CameraTiles {
 /// What building the camera's tile lists cost and holds, for statistics.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct TileStats {
-    /// Wall time of the build (on the host, in f64).
+    /// Time of the build: the GPU's (timestamps, or the submission's wall
+    /// time without them) or the host's wall time.
     pub build_ms: f64,
+    /// Whether the GPU built them (render::tile_build).
+    pub gpu: bool,
     /// Entries in the lists (a primitive is in every tile it may cover).
     pub entries: usize,
     pub longest_list: usize,
@@ -581,6 +592,7 @@ impl Renderer {
             slice_steps: 0,
             pipelines: HashMap::new(),
             tiles: None,
+            tile_build: None,
             submitter: Submitter::new(ctx)?,
             pipeline_ns: 0.0,
             defer_index: false,
@@ -1053,40 +1065,140 @@ impl Renderer {
             return Ok(true);
         }
         let grid = self.grid.expect("tiles apply with the index only");
-        let started = Instant::now();
-        let prims = primitives_with_radii(&self.scene, &index::index_radii(&self.scene));
-        let lists = tiles::TileLists::build(&prims, grid.groups as u32, camera, width, height);
-        let Ok(steps) = slice_steps(FoldCost::tiles(&grid, &lists), self.scene.lights.len()) else {
+        let built = if self.gpu_tiles_apply(width, height) {
+            self.build_tiles_on_gpu(grid.groups as u32, camera, width, height)?
+        } else {
+            self.build_tiles_on_host(grid.groups as u32, camera, width, height)?
+        };
+        let Ok(steps) = slice_steps(FoldCost::tiles(&grid, built.longest, built.crowd), self.scene.lights.len()) else {
             // A list longer than a dispatch's loop budget: the grid (and
             // no earlier camera's lists).
             self.forget_tiles();
             return Ok(false);
         };
-        let build_ns = started.elapsed().as_secs_f64() * 1e9;
-        let fits = self
-            .tiles
-            .as_ref()
-            .is_some_and(|t| t.starts.size >= 4 * lists.starts.len() as u64 && t.entries.size >= 8 * lists.entries.len().max(1) as u64);
+        let t = self.tiles.as_mut().expect("the builds make them");
+        t.frame = Some(frame);
+        t.slice_steps = steps;
+        Ok(true)
+    }
+
+    /// Whether the camera's lists of a `width` x `height` frame are built
+    /// on the GPU ([`tile_build`]): where the device can, unless
+    /// `ISOMARCH_TILE_BUILD=host`; frames of at most 65,535 tiles (a
+    /// primitive's loop over its tiles stays below lavapipe's cap).
+    pub fn gpu_tiles_apply(&self, width: u32, height: u32) -> bool {
+        let tiles = u64::from(width.div_ceil(rays::PIXEL_TILE)) * u64::from(height.div_ceil(rays::PIXEL_TILE));
+        tile_build::supported(&self.ctx) && tiles <= 65_535 && env_switch(TILE_BUILD_SWITCH).unwrap_or(true)
+    }
+
+    /// Makes sure the lists' buffers hold `lists` lists and `entries`
+    /// entries, growing them (to powers of two) where not.
+    fn ensure_tile_buffers(&mut self, lists: u64, entries: u64) -> Result<()> {
+        let fits = self.tiles.as_ref().is_some_and(|t| t.starts.size >= 4 * (lists + 1) && t.entries.size >= 8 * entries.max(1));
         if !fits {
-            let grow = |bytes: usize| (bytes.max(16) as u64).next_power_of_two();
-            let starts = Buffer::texels(&self.ctx, "tile list starts", grow(4 * lists.starts.len()), TexelFormat::R32Uint, true)?;
-            let entries = Buffer::texels(&self.ctx, "tile list entries", grow(8 * lists.entries.len()), TexelFormat::Rg32Uint, true)?;
+            let (starts, entries) = tile_build::list_buffers(&self.ctx, lists, entries)?;
+            let steps = self.tiles.as_ref().map_or(1, |t| t.slice_steps);
             self.tiles = Some(CameraTiles { starts, entries, frame: None, slice_steps: steps, stats: TileStats::default() });
             self.rebind()?;
         }
+        Ok(())
+    }
+
+    /// The host's build ([`tiles::TileLists::build`], in f64), uploaded.
+    fn build_tiles_on_host(&mut self, groups: u32, camera: &scene::Camera, width: u32, height: u32) -> Result<tile_build::Built> {
+        let started = Instant::now();
+        let prims = primitives_with_radii(&self.scene, &index::index_radii(&self.scene));
+        let lists = tiles::TileLists::build(&prims, groups, camera, width, height);
+        let build_ms = started.elapsed().as_secs_f64() * 1e3;
+        self.ensure_tile_buffers(lists.starts.len() as u64 - 1, lists.entries.len() as u64)?;
         let t = self.tiles.as_mut().expect("made above");
         self.transfers.upload(&t.starts, 0, &lists.starts)?;
         self.transfers.upload(&t.entries, 0, &lists.entries)?;
-        t.frame = Some(frame);
-        t.slice_steps = steps;
         t.stats = TileStats {
-            build_ms: build_ns * 1e-6,
+            build_ms,
+            gpu: false,
             entries: lists.entries.len(),
             longest_list: lists.longest,
             tiles: (lists.tiles_x * lists.tiles_y) as usize,
             bytes: lists.bytes(),
         };
-        Ok(true)
+        Ok(tile_build::Built { entries: lists.entries.len(), longest: lists.longest, crowd: lists.crowd })
+    }
+
+    /// The GPU's build ([`tile_build`]): one submission, made again in
+    /// larger buffers where the entries outgrew them.
+    fn build_tiles_on_gpu(&mut self, groups: u32, camera: &scene::Camera, width: u32, height: u32) -> Result<tile_build::Built> {
+        let primitives = self.scene.primitive_count() as u64;
+        let tiles = u64::from(width.div_ceil(rays::PIXEL_TILE)) * u64::from(height.div_ceil(rays::PIXEL_TILE));
+        let lists = tiles * u64::from(groups);
+        // A first guess of the entries: four tiles a primitive.
+        let mut capacity = self.tile_build.as_ref().map_or(4 * primitives + lists, |b| b.capacity).max(1 << 16);
+        for _ in 0..4 {
+            if self.tile_build.as_ref().is_none_or(|b| !b.fits(primitives, capacity)) {
+                let started = Instant::now();
+                self.tile_build = None;
+                self.tile_build = Some(tile_build::TileBuild::new(&self.ctx, primitives, capacity)?);
+                self.pipeline_ns += started.elapsed().as_secs_f64() * 1e9;
+            }
+            self.ensure_tile_buffers(lists, capacity)?;
+            self.warm_cold()?;
+            let t = self.tiles.as_ref().expect("made above");
+            let build = self.tile_build.as_mut().expect("made above");
+            let started = Instant::now();
+            let (built, ns) = build.build(
+                &mut self.submitter,
+                &mut self.transfers,
+                (&self.prims, &t.starts, &t.entries),
+                (primitives as u32, groups),
+                camera,
+                (width, height),
+                self.timeout,
+            )?;
+            let wall_ms = started.elapsed().as_secs_f64() * 1e3;
+            if built.entries as u64 > build.capacity {
+                // Too many entries for the buffers: again, in larger ones.
+                capacity = (built.entries as u64).next_power_of_two();
+                continue;
+            }
+            let t = self.tiles.as_mut().expect("made above");
+            t.stats = TileStats {
+                build_ms: ns.map_or(wall_ms, |ns| ns * 1e-6),
+                gpu: true,
+                entries: built.entries,
+                longest_list: built.longest,
+                tiles: tiles as usize,
+                bytes: 4 * (lists as usize + 1) + 8 * built.entries,
+            };
+            return Ok(built);
+        }
+        bail!("the tile lists' entries kept outgrowing their buffers ({capacity} entries)")
+    }
+
+    /// The camera's tile lists as the GPU holds them (read back: for
+    /// tests and checks), or `None` without lists for the current camera.
+    pub fn camera_tile_lists(&mut self) -> Result<Option<tiles::TileLists>> {
+        let Some(t) = self.tiles.as_ref() else { return Ok(None) };
+        let Some((_, width, height)) = t.frame.clone() else { return Ok(None) };
+        let groups = self.grid.map_or(1, |g| g.groups as u32);
+        let (tiles_x, tiles_y) = (width.div_ceil(rays::PIXEL_TILE), height.div_ceil(rays::PIXEL_TILE));
+        let lists = (tiles_x * tiles_y * groups) as usize;
+        let starts = self.transfers.fetch::<u32>(&t.starts, 0, lists + 1)?;
+        let total = t.stats.entries;
+        let entries = self.transfers.fetch::<[u32; 2]>(&t.entries, 0, total.max(1))?;
+        self.submitter.run_with(Instant::now() + self.timeout, self.timeout, &mut self.transfers, |_, _| {})?;
+        let starts: Vec<u32> = self.transfers.take(starts)?;
+        let mut entries: Vec<[u32; 2]> = self.transfers.take(entries)?;
+        entries.truncate(total);
+        let counts: Vec<usize> = starts.windows(2).map(|w| (w[1] - w[0]) as usize).collect();
+        let longest = counts.iter().copied().max().unwrap_or(0);
+        let crowd = counts.chunks(groups as usize).map(|c| c.iter().sum()).max().unwrap_or(0);
+        Ok(Some(tiles::TileLists { width, height, tiles_x, tiles_y, groups, starts, entries, longest, crowd }))
+    }
+
+    /// The primitives as the GPU holds them (centre and clip radius in
+    /// `a`, group in `ids.y`).
+    pub fn primitives(&self) -> Vec<GpuPrimitive> {
+        gpu_primitives(&self.scene)
     }
 
     /// What the last build of the camera's tile lists made.

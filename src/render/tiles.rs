@@ -54,17 +54,17 @@ pub struct TileLists {
 /// The camera's frame: eye, unit axes, and the half-extents of the image
 /// plane at distance 1, as `rays::camera_rays_through` makes its rays.
 #[derive(Clone, Copy, Debug)]
-struct View {
-    eye: DVec3,
-    forward: DVec3,
-    right: DVec3,
-    up: DVec3,
-    half_w: f64,
-    half_h: f64,
+pub(super) struct View {
+    pub eye: DVec3,
+    pub forward: DVec3,
+    pub right: DVec3,
+    pub up: DVec3,
+    pub half_w: f64,
+    pub half_h: f64,
 }
 
 impl View {
-    fn new(cam: &Camera, width: u32, height: u32) -> View {
+    pub(super) fn new(cam: &Camera, width: u32, height: u32) -> View {
         let forward = (cam.target - cam.eye).normalize();
         let right = forward.cross(cam.up).normalize();
         let up = right.cross(forward);
@@ -223,6 +223,114 @@ impl TileLists {
     }
 }
 
+impl TileLists {
+    /// The containment check: every support that a camera ray of `cam`'s
+    /// frame meets (rays through the centre of every pixel, then again
+    /// `samples` less one times through random points of each, as
+    /// anti-aliasing makes them, in f32 as the renderer makes them, the
+    /// meeting tested in f64)
+    /// is in its tile's list, with the ray's pixel among the entry's.
+    /// Returns how many meetings were checked, or the first left out.
+    pub fn check_containment(&self, prims: &[GpuPrimitive], cam: &Camera, samples: u32, seed: u64) -> Result<usize, String> {
+        use rand::{Rng, SeedableRng};
+        let (w, h) = (self.width, self.height);
+        let bounds = crate::scene::Aabb { min: DVec3::splat(-1e6), max: DVec3::splat(1e6) };
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+        let mask = (1 << PIXEL_BITS) - 1;
+        let mut met = 0;
+        for s in 0..samples {
+            let offsets: Vec<(f64, f64)> = (0..w * h).map(|_| (rng.random::<f64>(), rng.random::<f64>())).collect();
+            let at = |p: u32| if s == 0 { (0.5, 0.5) } else { offsets[p as usize] };
+            let (rays, pixels) = super::rays::camera_rays_through(cam, w, h, &bounds, at);
+            for (k, (ray, pixel)) in rays.iter().zip(&pixels).enumerate() {
+                let Some(pixel) = *pixel else { continue };
+                let r = super::rays::Ray::from_gpu(ray);
+                let tile = (k / 64) as u32;
+                let (x, y) = (pixel % w % PIXEL_TILE, pixel / w % PIXEL_TILE);
+                for (i, p) in prims.iter().enumerate() {
+                    let c = DVec3::new(p.a[0].into(), p.a[1].into(), p.a[2].into());
+                    let radius = f64::from(p.a[3]);
+                    let co = c - r.o;
+                    let tc = co.dot(r.d).max(0.0);
+                    if (co - tc * r.d).length_squared() >= radius * radius {
+                        continue;
+                    }
+                    met += 1;
+                    let covers = |e: &[u32; 2]| {
+                        let b = e[1] & mask;
+                        (b & 7..=b >> 3 & 7).contains(&x) && (b >> 6 & 7..=b >> 9 & 7).contains(&y)
+                    };
+                    if !self.list(p.ids[1], tile).iter().any(|e| e[0] == i as u32 && covers(e)) {
+                        return Err(format!(
+                            "pixel {pixel} (tile {tile}) meets primitive {i} at {c} radius {radius}, which its list leaves out or says it does not cover"
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(met)
+    }
+
+    /// How these lists (the GPU's) differ from `host`'s: each list must
+    /// hold the host's entries (the same primitives, depth words and
+    /// pixels) in order of depth; entries beyond the host's are counted
+    /// (a device whose f64 rounds otherwise than IEEE may widen a bound by
+    /// a pixel), and returned. An entry the host has and these lack, or a
+    /// list out of depth order, is an error.
+    pub fn agreement(&self, host: &TileLists) -> Result<usize, String> {
+        if (self.tiles_x, self.tiles_y, self.groups) != (host.tiles_x, host.tiles_y, host.groups) {
+            return Err(format!(
+                "{}x{} tiles of {} groups against the host's {}x{} of {}",
+                self.tiles_x, self.tiles_y, self.groups, host.tiles_x, host.tiles_y, host.groups
+            ));
+        }
+        let mask = !((1u32 << PIXEL_BITS) - 1);
+        let mut extra = 0;
+        for tile in 0..self.tiles_x * self.tiles_y {
+            for g in 0..self.groups {
+                let (ours, theirs) = (self.list(g, tile), host.list(g, tile));
+                if let Some(k) = (1..ours.len()).find(|&k| f32::from_bits(ours[k][1] & mask) < f32::from_bits(ours[k - 1][1] & mask)) {
+                    return Err(format!("tile {tile} group {g}: entry {k} {:?} is nearer than the one before it {:?}", ours[k], ours[k - 1]));
+                }
+                let mut sorted = ours.to_vec();
+                sorted.sort_unstable();
+                if let Some(e) = theirs.iter().find(|e| sorted.binary_search(e).is_err()) {
+                    return Err(format!("tile {tile} group {g}: the host's entry {e:?} (primitive {}) is missing", e[0]));
+                }
+                extra += ours.len() - theirs.len();
+            }
+        }
+        Ok(extra)
+    }
+
+    /// These lists with the entries of every primitive's last column of
+    /// tiles taken out where it spans two or more: lists that the
+    /// containment check must refuse (the check broken on purpose).
+    pub fn without_last_tile_columns(&self) -> TileLists {
+        let mut columns: std::collections::HashMap<u32, (u32, u32)> = std::collections::HashMap::new();
+        for tile in 0..self.tiles_x * self.tiles_y {
+            for g in 0..self.groups {
+                for e in self.list(g, tile) {
+                    let c = columns.entry(e[0]).or_insert((u32::MAX, 0));
+                    *c = (c.0.min(tile % self.tiles_x), c.1.max(tile % self.tiles_x));
+                }
+            }
+        }
+        let mut starts = vec![0u32];
+        let mut entries = Vec::new();
+        for tile in 0..self.tiles_x * self.tiles_y {
+            for g in 0..self.groups {
+                entries.extend(self.list(g, tile).iter().filter(|e| {
+                    let (first, last) = columns[&e[0]];
+                    last == first || tile % self.tiles_x != last
+                }));
+                starts.push(entries.len() as u32);
+            }
+        }
+        TileLists { starts, entries, ..self.clone() }
+    }
+}
+
 /// The largest f32 not above `x` (x >= 0 and finite).
 fn f32_below(x: f64) -> f32 {
     let f = x as f32;
@@ -232,8 +340,6 @@ fn f32_below(x: f64) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::rays::camera_rays_through;
-    use crate::scene::Aabb;
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64Mcg;
 
@@ -241,51 +347,10 @@ mod tests {
         GpuPrimitive { a: [c.x as f32, c.y as f32, c.z as f32, r as f32], b: [0.0; 4], c: [0.0, r as f32, r as f32, 0.0], ids: [0, group, 0, 0] }
     }
 
-    /// Whether the f64 ray meets the ball at some t >= 0.
-    fn meets(o: DVec3, d: DVec3, c: DVec3, r: f64) -> bool {
-        let co = c - o;
-        let tc = co.dot(d).max(0.0);
-        (co - tc * d).length_squared() < r * r
-    }
-
-    /// Every support a sampled camera ray meets is in its tile's list: rays
-    /// through random points of every pixel (as anti-aliasing makes them),
-    /// as the renderer makes them in f32, widened.
+    /// Every support a sampled camera ray meets is in its tile's list
+    /// ([`TileLists::check_containment`]).
     fn assert_contained(prims: &[GpuPrimitive], groups: u32, cam: &Camera, w: u32, h: u32, samples: u32, seed: u64) -> usize {
-        let lists = TileLists::build(prims, groups, cam, w, h);
-        let bounds = Aabb { min: DVec3::splat(-1e6), max: DVec3::splat(1e6) };
-        let mut rng = Pcg64Mcg::seed_from_u64(seed);
-        let mut met = 0;
-        for s in 0..samples {
-            let offsets: Vec<(f64, f64)> = (0..w * h).map(|_| (rng.random::<f64>(), rng.random::<f64>())).collect();
-            let at = |p: u32| if s == 0 { (0.5, 0.5) } else { offsets[p as usize] };
-            let (rays, pixels) = camera_rays_through(cam, w, h, &bounds, at);
-            for (k, (ray, pixel)) in rays.iter().zip(&pixels).enumerate() {
-                if pixel.is_none() {
-                    continue;
-                }
-                let r = crate::render::rays::Ray::from_gpu(ray);
-                let tile = (k / 64) as u32;
-                for (i, p) in prims.iter().enumerate() {
-                    let c = DVec3::new(p.a[0].into(), p.a[1].into(), p.a[2].into());
-                    if meets(r.o, r.d, c, f64::from(p.a[3])) {
-                        met += 1;
-                        let (x, y) = (pixel.unwrap() % w % PIXEL_TILE, pixel.unwrap() / w % PIXEL_TILE);
-                        let mask = (1 << PIXEL_BITS) - 1;
-                        let covers = |e: &[u32; 2]| {
-                            let b = e[1] & mask;
-                            (b & 7..=b >> 3 & 7).contains(&x) && (b >> 6 & 7..=b >> 9 & 7).contains(&y)
-                        };
-                        assert!(
-                            lists.list(p.ids[1], tile).iter().any(|e| e[0] == i as u32 && covers(e)),
-                            "pixel {pixel:?} (tile {tile}) meets primitive {i} at {c} radius {}, which its list leaves out or says it does not cover",
-                            p.a[3]
-                        );
-                    }
-                }
-            }
-        }
-        met
+        TileLists::build(prims, groups, cam, w, h).check_containment(prims, cam, samples, seed).unwrap()
     }
 
     fn camera(eye: DVec3, target: DVec3, fov: f64) -> Camera {
@@ -326,6 +391,31 @@ mod tests {
             met += assert_contained(&prims, 2, &cam, w, h, if w * h > 20_000 { 1 } else { 3 }, w as u64 * 31 + h as u64);
         }
         assert!(met > 10_000, "only {met} ray-support meetings were checked");
+    }
+
+    /// The containment check can fail: lists with one tile edge of every
+    /// wide primitive taken out are refused.
+    #[test]
+    fn the_containment_check_refuses_lists_missing_a_tile_edge() {
+        let mut rng = Pcg64Mcg::seed_from_u64(3);
+        let prims: Vec<GpuPrimitive> = (0..40)
+            .map(|_| {
+                point(
+                    DVec3::new(rng.random_range(-6.0..6.0), rng.random_range(-6.0..6.0), rng.random_range(-6.0..6.0)),
+                    rng.random_range(0.5..2.0),
+                    0,
+                )
+            })
+            .collect();
+        let cam = camera(DVec3::new(0.0, 0.0, 20.0), DVec3::ZERO, 50.0);
+        let lists = TileLists::build(&prims, 1, &cam, 64, 64);
+        assert!(lists.check_containment(&prims, &cam, 1, 1).unwrap() > 500);
+        let broken = lists.without_last_tile_columns();
+        assert!(broken.entries.len() < lists.entries.len());
+        let refused = broken.check_containment(&prims, &cam, 1, 1).unwrap_err();
+        assert!(refused.contains("leaves out"), "{refused}");
+        assert_eq!(lists.agreement(&lists), Ok(0));
+        assert!(broken.agreement(&lists).unwrap_err().contains("missing"));
     }
 
     #[test]
