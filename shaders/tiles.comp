@@ -18,7 +18,8 @@
 //   TILE_PASS_SCATTER     one subgroup per chunk: each key and value to its
 //                         place, in order within its digit (a stable LSD
 //                         radix sort: lanes of equal digits ranked by
-//                         ballots, lanes and rounds in order)
+//                         ballots, lanes and rounds in order); the entries'
+//                         last pass writes each entry into its list
 //   TILE_PASS_COUNT       one invocation per primitive in depth order: its
 //                         tile count, for the prefix sum that places its
 //                         entries
@@ -27,7 +28,6 @@
 //                         entry per tile its pixels meet, keyed by list
 //   TILE_PASS_RANGES      one invocation per list (and one more): where it
 //                         starts among the entries sorted by list
-//   TILE_PASS_GATHER      one invocation per entry: the entry into its place
 //   TILE_PASS_STATS       one invocation per tile: the longest list and the
 //                         most entries of one tile
 // No invocation loops more than push.chunk / subgroup size, TILE_SCAN_BLOCK,
@@ -51,7 +51,7 @@ layout(push_constant) uniform TilePush {
     uint dst;     // where it writes them
     uint chunk;   // keys of a subgroup's chunk, a multiple of the subgroup size
     uint scan_n;  // values of a prefix sum (0: the histogram's)
-    uint unused;
+    uint last;    // SCATTER: 1 in the entries' last pass, which writes them into their lists
 } push;
 
 // The radix sort's per-subgroup digit counts (at most 16 subgroups of a
@@ -190,7 +190,16 @@ void radix_chunk(bool scatter) {
     subgroupBarrier();
     uint first = chunk * push.chunk;
     uint last = min(first + push.chunk, n);
-    for (uint at = first; at < last; at += size) {
+    if (!scatter) {
+        // Counting needs no order: shared atomics, no ballots.
+        for (uint at = first; at < last; at += size) {
+            uint k = at + lane;
+            if (k < last) atomicAdd(digit_base[sg][(sort_keys[push.src + k] >> push.shift) & (bins - 1u)], 1u);
+        }
+        subgroupMemoryBarrierShared();
+        subgroupBarrier();
+    }
+    for (uint at = first; scatter && at < last; at += size) {
         uint k = at + lane;
         bool valid = k < last;
         uint key = valid ? sort_keys[push.src + k] : 0u;
@@ -203,10 +212,13 @@ void radix_chunk(bool scatter) {
         if (leader) digit_base[sg][digit] = base + subgroupBallotBitCount(peers);
         subgroupMemoryBarrierShared();
         subgroupBarrier();
-        if (scatter && valid) {
+        if (valid) {
             uint place = base + subgroupBallotExclusiveBitCount(peers);
+            uint value = sort_values[push.src + k];
             sort_keys[push.dst + place] = key;
-            sort_values[push.dst + place] = sort_values[push.src + k];
+            // The entries' last pass puts each entry in its list at once.
+            if (push.last != 0u) list_entries[place] = emitted[value];
+            else sort_values[push.dst + place] = value;
         }
     }
     if (!scatter) {
@@ -332,9 +344,6 @@ void main() {
             }
             list_starts[i] = lo;
         }
-        break;
-    case TILE_PASS_GATHER:
-        if (i < items()) list_entries[i] = emitted[sort_values[push.src + i]];
         break;
     case TILE_PASS_STATS: {
         uint longest = 0u, crowd = 0u;

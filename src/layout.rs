@@ -343,9 +343,8 @@ pub const TILE_PASS_COUNT: u32 = 6;
 pub const TILE_PASS_TOTAL: u32 = 7;
 pub const TILE_PASS_EMIT: u32 = 8;
 pub const TILE_PASS_RANGES: u32 = 9;
-pub const TILE_PASS_GATHER: u32 = 10;
-pub const TILE_PASS_STATS: u32 = 11;
-pub const TILE_PASSES: u32 = 12;
+pub const TILE_PASS_STATS: u32 = 10;
+pub const TILE_PASSES: u32 = 11;
 /// The specialization constant that picks tiles.comp's pass (`TILE_PASS`).
 pub const TILE_PASS_CONSTANT: u32 = 21;
 /// Values a workgroup of tiles.comp's prefix sum takes (64 invocations,
@@ -458,7 +457,6 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = &[
     ("TILE_PASS_TOTAL", TILE_PASS_TOTAL),
     ("TILE_PASS_EMIT", TILE_PASS_EMIT),
     ("TILE_PASS_RANGES", TILE_PASS_RANGES),
-    ("TILE_PASS_GATHER", TILE_PASS_GATHER),
     ("TILE_PASS_STATS", TILE_PASS_STATS),
     ("TILE_PASS_CONSTANT", TILE_PASS_CONSTANT),
     ("TILE_SCAN_BLOCK", TILE_SCAN_BLOCK),

@@ -536,7 +536,8 @@ fn a_molecules_any_hit_queries_end_where_a_ray_enters_an_atoms_reach() {
 }
 
 /// Camera rays through the camera's screen-space tile lists
-/// (src/render/tiles.rs) find the f64 reference's first hits, for every
+/// (src/render/tiles.rs), built on the GPU (src/render/tile_build.rs),
+/// find the f64 reference's first hits, for every
 /// conservative method they serve (all but the bisection baselines), on
 /// particles in one group and in three, and on two molecules; the lists'
 /// hits and depths are the grid's within the tolerance (on 6WG6 the
@@ -556,6 +557,9 @@ fn camera_rays_through_tile_lists_find_the_references_hits() {
         let s = s.recentred_on_camera();
         let tol = tolerance(&s);
         let mut renderer = Renderer::new(&ctx, &s).unwrap();
+        // The lists built on the GPU (render::tile_build; the host's build
+        // is tests/tile_build.rs's reference).
+        renderer.set_tile_builder(Some(true));
         let (rays, pixels) = isomarch::render::rays::camera_rays(&s.camera, w, h, &s.bounds);
         // 6WG6's f64 reference costs about 13 ms a ray on 2 cores (most of
         // this test's time): it is taken on every fourth ray, 16 of each
@@ -575,6 +579,7 @@ fn camera_rays_through_tile_lists_find_the_references_hits() {
         assert!(served.len() == Method::CONSERVATIVE.len() - 2 && served.iter().all(|m| !m.bisects()), "{what}: the lists serve {served:?}");
         for &method in &served {
             assert!(renderer.prepare_camera(method, &opaque, &s.camera, w, h).unwrap(), "{what} {method}: the lists do not fit");
+            assert!(renderer.tile_stats().unwrap().gpu, "{what} {method}: the lists were built on the host");
             let tiled = renderer.march_camera(method, opaque, &rays, 0).unwrap().results;
             let grid = renderer.march(method, opaque, &rays, |_| {}).unwrap().results;
             assert_finite(&tiled, &format!("{what} {method}"));

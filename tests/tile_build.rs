@@ -19,6 +19,7 @@ use isomarch::scene::Scene;
 /// order (extra ones counted, and returned with the lists).
 fn gpu_lists(renderer: &mut Renderer, s: &Scene, (w, h): (u32, u32), what: &str) -> (TileLists, usize) {
     let opaque = MarchOptions { shade: false, ..MarchOptions::for_scene(s) };
+    renderer.set_tile_builder(Some(true));
     assert!(renderer.gpu_tiles_apply(w, h), "{what}: the GPU does not build the lists");
     assert!(renderer.prepare_camera(Method::QuadraticTaylor, &opaque, &s.camera, w, h).unwrap(), "{what}: no lists");
     let stats = renderer.tile_stats().unwrap();

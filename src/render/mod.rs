@@ -285,6 +285,8 @@ pub struct Renderer {
     /// tiles.comp's pipelines and buffers, made with the first lists the
     /// GPU builds.
     tile_build: Option<tile_build::TileBuild>,
+    /// Where the lists are built ([`Renderer::set_tile_builder`]).
+    tile_builder: Option<bool>,
     submitter: Submitter,
     /// Uploads into and reads out of the device-local buffers, recorded
     /// into the next submission (gpu::Transfers).
@@ -316,8 +318,9 @@ pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(600);
 /// The switches the environment may turn off to measure what they buy.
 pub const ENV_SWITCHES: [&str; 5] = ["ISOMARCH_INDEX", "ISOMARCH_BRACKET", "ISOMARCH_TILES", frame::GPU_FRAME_SWITCH, TILE_BUILD_SWITCH];
 
-/// `ISOMARCH_TILE_BUILD=off` builds the camera's tile lists on the host
-/// (the reference) where the GPU could ([`Renderer::gpu_tiles_apply`]).
+/// `ISOMARCH_TILE_BUILD=on` builds the camera's tile lists on the GPU,
+/// `off` on the host (the reference), whatever the device
+/// ([`Renderer::gpu_tiles_apply`]).
 pub const TILE_BUILD_SWITCH: &str = "ISOMARCH_TILE_BUILD";
 
 /// A switch of [`ENV_SWITCHES`]: on unless set to `off` (or `0`);
@@ -593,6 +596,7 @@ impl Renderer {
             pipelines: HashMap::new(),
             tiles: None,
             tile_build: None,
+            tile_builder: None,
             submitter: Submitter::new(ctx)?,
             pipeline_ns: 0.0,
             defer_index: false,
@@ -1088,7 +1092,23 @@ impl Renderer {
     /// primitive's loop over its tiles stays below lavapipe's cap).
     pub fn gpu_tiles_apply(&self, width: u32, height: u32) -> bool {
         let tiles = u64::from(width.div_ceil(rays::PIXEL_TILE)) * u64::from(height.div_ceil(rays::PIXEL_TILE));
-        tile_build::supported(&self.ctx) && tiles <= 65_535 && env_switch(TILE_BUILD_SWITCH).unwrap_or(true)
+        // A CPU's driver (lavapipe) runs the GPU's build on the host's
+        // cores, slower than the host's own build (docs/performance.md,
+        // "Tile lists built on the GPU"): there the host builds them, unless
+        // asked otherwise.
+        let asked = std::env::var_os(TILE_BUILD_SWITCH).map(|_| env_switch(TILE_BUILD_SWITCH).unwrap_or(true));
+        let wanted = self.tile_builder.or(asked).unwrap_or(!self.ctx.info.kind.contains("CPU"));
+        tile_build::supported(&self.ctx) && tiles <= 65_535 && wanted
+    }
+
+    /// Builds the camera's tile lists on the GPU (`Some(true)`), on the
+    /// host (`Some(false)`), or where [`Renderer::gpu_tiles_apply`] rules
+    /// (`None`, the default; `ISOMARCH_TILE_BUILD=on|off` overrides it).
+    pub fn set_tile_builder(&mut self, gpu: Option<bool>) {
+        if self.tile_builder != gpu {
+            self.tile_builder = gpu;
+            self.forget_tiles();
+        }
     }
 
     /// Makes sure the lists' buffers hold `lists` lists and `entries`
@@ -1133,6 +1153,8 @@ impl Renderer {
         let lists = tiles * u64::from(groups);
         // A first guess of the entries: four tiles a primitive.
         let mut capacity = self.tile_build.as_ref().map_or(4 * primitives + lists, |b| b.capacity).max(1 << 16);
+        // The GPU's time of every try (timestamps), or the wall time.
+        let (mut gpu_ns, started) = (Some(0.0), Instant::now());
         for _ in 0..4 {
             if self.tile_build.as_ref().is_none_or(|b| !b.fits(primitives, capacity)) {
                 let started = Instant::now();
@@ -1144,7 +1166,6 @@ impl Renderer {
             self.warm_cold()?;
             let t = self.tiles.as_ref().expect("made above");
             let build = self.tile_build.as_mut().expect("made above");
-            let started = Instant::now();
             let (built, ns) = build.build(
                 &mut self.submitter,
                 &mut self.transfers,
@@ -1154,15 +1175,17 @@ impl Renderer {
                 (width, height),
                 self.timeout,
             )?;
-            let wall_ms = started.elapsed().as_secs_f64() * 1e3;
+            gpu_ns = gpu_ns.zip(ns).map(|(a, b)| a + b);
             if built.entries as u64 > build.capacity {
-                // Too many entries for the buffers: again, in larger ones.
-                capacity = (built.entries as u64).next_power_of_two();
+                // Too many entries for the buffers (the build stopped once
+                // it knew): again, in larger ones.
+                capacity = (built.entries as u64 + built.entries as u64 / 8).next_power_of_two();
                 continue;
             }
+            let wall_ms = started.elapsed().as_secs_f64() * 1e3;
             let t = self.tiles.as_mut().expect("made above");
             t.stats = TileStats {
-                build_ms: ns.map_or(wall_ms, |ns| ns * 1e-6),
+                build_ms: gpu_ns.map_or(wall_ms, |ns| ns * 1e-6),
                 gpu: true,
                 entries: built.entries,
                 longest_list: built.longest,
