@@ -112,6 +112,10 @@ fn the_viewer_presents_frames_and_exits_cleanly() {
     let shot = dir.join("fig10.png");
     let out = view(&x, &["scenes/fig10.ron", "--size", "96x80", "--exit-after", "6", "--screenshot", shot.to_str().unwrap()]);
     assert_clean(&out, 6);
+    // Its previews made whole on the GPU (render::frame), not ray by ray.
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let gpu = stdout.split(", ").nth(1).and_then(|w| w.split_whitespace().next()).and_then(|n| n.parse::<u64>().ok());
+    assert!(gpu.is_some_and(|n| n >= 1), "no preview made whole on the GPU: {stdout}");
     // The surface, not a blank window: many shades.
     assert!(colours(&shot, (96, 80)) > 50, "the presented image is nearly uniform");
 }

@@ -81,9 +81,10 @@ pub fn render(job: &RenderJob, s: &RenderStats) {
 #[cfg(feature = "window")]
 pub fn view(s: &ViewSummary) {
     println!(
-        "presented {} ({} at full resolution) in {:.1} s; last: {}, {:.2} steps/ray",
+        "presented {} ({} at full resolution, {} made whole on the GPU) in {:.1} s; last: {}, {:.2} steps/ray",
         count(s.presented, "frame"),
         s.full_frames,
+        s.gpu_frames,
         s.seconds,
         s.method,
         s.steps_per_ray

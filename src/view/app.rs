@@ -24,7 +24,7 @@ use crate::layout::GpuRay;
 use crate::method::Method;
 use crate::molecule::playback::{Order, Prefetch};
 use crate::output::{self, LEGEND_HEIGHT};
-use crate::render::offscreen::SAMPLE_SEED;
+use crate::render::offscreen::{Effects, SAMPLE_SEED};
 use crate::render::offscreen::{march_camera_frame, pixel_stats};
 use crate::render::rays::{PIXEL_TILE, camera_rays, camera_rays_through, subpixel};
 use crate::render::{MarchOptions, Renderer};
@@ -62,6 +62,8 @@ pub struct App {
     error: Option<anyhow::Error>,
     controls: Controls,
     canvas: Canvas,
+    /// Previews made whole on the GPU ([`App::gpu_preview`]).
+    gpu_frames: u64,
     camera: Camera,
     schedule: Schedule,
     /// The full-resolution pass under way (`Phase::Refining`).
@@ -93,6 +95,7 @@ impl App {
         Ok(App {
             controls: Controls::new(&options, now),
             canvas: Canvas::default(),
+            gpu_frames: 0,
             camera: Camera::new(&options, now),
             schedule: Schedule::new(now),
             pass: None,
@@ -116,6 +119,7 @@ impl App {
         Ok(ViewSummary {
             presented: self.schedule.presented,
             full_frames: self.schedule.full_frames,
+            gpu_frames: self.gpu_frames,
             seconds: self.schedule.started.elapsed().as_secs_f64(),
             method: self.controls.method,
             steps_per_ray: self.schedule.steps_per_ray,
@@ -198,6 +202,11 @@ impl App {
             }
             Control::ToggleHeatmap => {
                 self.controls.heatmap = !self.controls.heatmap;
+                if self.controls.heatmap && self.canvas.steps.iter().all(|&s| s == 0) {
+                    // A preview made on the GPU kept no steps: again, on
+                    // the host.
+                    self.schedule.invalidate();
+                }
                 self.show()?;
             }
             Control::ToggleTransparency if self.options.scene.transparency.is_some() => {
@@ -322,6 +331,32 @@ impl App {
         Ok(out)
     }
 
+    /// A preview made whole on the GPU (render::frame: the camera rays,
+    /// the march, the look and the 8-bit image, 4 bytes a pixel read back)
+    /// where it applies and the steps heatmap is not shown (it needs every
+    /// ray's steps): its sRGB pixels and steps per ray, shadows and
+    /// occlusion included where the scene asks, as `render` makes them.
+    fn gpu_preview(&mut self, scene: &Scene, size: (u32, u32)) -> Result<Option<(Vec<u8>, f64)>> {
+        let Some(gpu) = self.gpu.as_mut() else { return Ok(None) };
+        let options = MarchOptions::for_scene(scene);
+        if self.controls.heatmap || !gpu.renderer.gpu_frame_applies(&options, scene, size) {
+            return Ok(None);
+        }
+        gpu.renderer.set_scene(scene)?;
+        let t = Instant::now();
+        let method = self.controls.method;
+        gpu.renderer.prepare_camera(method, &options, &scene.camera, size.0, size.1)?;
+        let frame = gpu.renderer.gpu_frame(method, options, scene, size, 1, &Effects::default())?;
+        let rays = (size.0.div_ceil(PIXEL_TILE) * size.1.div_ceil(PIXEL_TILE) * PIXEL_TILE * PIXEL_TILE) as usize;
+        self.schedule.measured(t.elapsed(), rays);
+        if let Some(p) = &mut self.player {
+            p.stats.march_ms += t.elapsed().as_secs_f64() * 1e3;
+        }
+        let rgb = frame.rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+        self.gpu_frames += 1;
+        Ok(Some((rgb, frame.stats.steps_per_ray)))
+    }
+
     /// Renders at a resolution that fits the preview budget and shows it
     /// scaled up to the window; full resolution when that fits.
     fn preview_frame(&mut self, size: (u32, u32)) -> Result<()> {
@@ -331,15 +366,24 @@ impl App {
         self.schedule.preview_divisor = divisor;
         let small = (size.0.div_ceil(divisor).max(1), size.1.div_ceil(divisor).max(1));
         let scene = self.posed(small);
-        let (rays, pixels) = camera_rays(&scene.camera, small.0, small.1, &scene.bounds);
         let started = Instant::now();
-        let out = self.march(&scene, small, &rays, 0)?;
-        let frame = output::Frame::from_results(small.0, small.1, &out.results, &pixels);
+        if let Some((rgb, steps_per_ray)) = self.gpu_preview(&scene, small)? {
+            let schedule = &mut self.schedule;
+            schedule.frame_ms = started.elapsed().as_secs_f64() * 1e3;
+            schedule.steps_per_ray = steps_per_ray;
+            // No steps: the heatmap marches on the host (gpu_preview).
+            self.canvas.upscale(small, &rgb, &vec![0; (small.0 * small.1) as usize], size);
+        } else {
+            let (rays, pixels) = camera_rays(&scene.camera, small.0, small.1, &scene.bounds);
+            let out = self.march(&scene, small, &rays, 0)?;
+            let frame = output::Frame::from_results(small.0, small.1, &out.results, &pixels);
+            let schedule = &mut self.schedule;
+            schedule.frame_ms = started.elapsed().as_secs_f64() * 1e3;
+            schedule.steps_per_ray = pixel_stats(&out, &pixels).steps_per_ray;
+            // Nearest-neighbour scale-up to the window.
+            self.canvas.upscale(small, frame.shaded().as_raw(), &frame.steps(), size);
+        }
         let schedule = &mut self.schedule;
-        schedule.frame_ms = started.elapsed().as_secs_f64() * 1e3;
-        schedule.steps_per_ray = pixel_stats(&out, &pixels).steps_per_ray;
-        // Nearest-neighbour scale-up to the window.
-        self.canvas.upscale(small, frame.shaded().as_raw(), &frame.steps(), size);
         if divisor == 1 {
             schedule.full_frames += 1;
         }

@@ -100,6 +100,9 @@ pub struct PlaybackStats {
 pub struct ViewSummary {
     pub presented: u64,
     pub full_frames: u64,
+    /// Previews made whole on the GPU (render::frame), 4 bytes a pixel
+    /// read back; the rest were marched ray by ray with the host's look.
+    pub gpu_frames: u64,
     pub seconds: f64,
     pub method: Method,
     pub steps_per_ray: f64,
