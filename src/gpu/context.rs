@@ -1,6 +1,8 @@
 //! Instance, physical device choice, logical device, queue and allocator.
 
+use std::collections::HashMap;
 use std::ffi::{CStr, CString, c_void};
+use std::hash::{Hash, Hasher};
 use std::mem::ManuallyDrop;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -83,6 +85,46 @@ pub struct Context {
     /// `cache_path` (`~/.cache/isomarch/`, one file per device and driver).
     pub pipeline_cache: vk::PipelineCache,
     cache_path: Option<std::path::PathBuf>,
+    /// Every compute pipeline made on this device, with its layouts, by
+    /// what it was made from ([`Context::shared_pipeline`]): made once and
+    /// shared by every `gpu::ComputePipeline` of the same recipe, and
+    /// destroyed with the device.
+    pipelines: Mutex<HashMap<PipelineRecipe, SharedPipeline>>,
+}
+
+/// What a compute pipeline is made from: its SPIR-V (by a hash of the
+/// words and their count), its bindings' numbers and descriptor types, its
+/// push-constant bytes and its specialisation constants.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub(crate) struct PipelineRecipe {
+    spirv_hash: u64,
+    spirv_words: usize,
+    bindings: Vec<(u32, i32)>,
+    push_constant_bytes: u32,
+    specialization: Vec<(u32, u32)>,
+}
+
+impl PipelineRecipe {
+    pub(crate) fn new(spirv: &[u32], bindings: &[(u32, vk::DescriptorType)], push_constant_bytes: u32, specialization: &[(u32, u32)]) -> Self {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        spirv.hash(&mut h);
+        PipelineRecipe {
+            spirv_hash: h.finish(),
+            spirv_words: spirv.len(),
+            bindings: bindings.iter().map(|&(i, t)| (i, t.as_raw())).collect(),
+            push_constant_bytes,
+            specialization: specialization.to_vec(),
+        }
+    }
+}
+
+/// A compute pipeline with the layouts it was made with, owned by the
+/// [`Context`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SharedPipeline {
+    pub pipeline: vk::Pipeline,
+    pub layout: vk::PipelineLayout,
+    pub set_layout: vk::DescriptorSetLayout,
 }
 
 fn validation_requested(options: &ContextOptions) -> bool {
@@ -317,6 +359,7 @@ impl Context {
             hung: AtomicBool::new(false),
             pipeline_cache,
             cache_path,
+            pipelines: Mutex::new(HashMap::new()),
         }))
     }
 
@@ -333,6 +376,39 @@ impl Context {
         }
         crate::output::write_atomic(path, &data)?;
         Ok(data.len())
+    }
+
+    /// The pipeline made from `recipe`, made by `make` the first time it
+    /// is asked for and shared from then on: pipelines of the same SPIR-V,
+    /// bindings and specialisation made by one process (a renderer per
+    /// scene, a test's many scenes) are compiled once, and the validation
+    /// layer parses their module once. `make` runs without the lock held;
+    /// if another thread made the same pipeline meanwhile, its copy is
+    /// kept and this one destroyed.
+    pub(crate) fn shared_pipeline(&self, recipe: PipelineRecipe, make: impl FnOnce() -> Result<SharedPipeline>) -> Result<SharedPipeline> {
+        if let Some(p) = self.pipelines.lock().map_err(|_| anyhow!("pipeline table lock poisoned"))?.get(&recipe) {
+            return Ok(*p);
+        }
+        let made = make()?;
+        let mut table = self.pipelines.lock().map_err(|_| anyhow!("pipeline table lock poisoned"))?;
+        if let Some(p) = table.get(&recipe) {
+            // SAFETY: `made` was never handed out.
+            unsafe { self.destroy_shared(made) };
+            return Ok(*p);
+        }
+        table.insert(recipe, made);
+        Ok(made)
+    }
+
+    /// # Safety
+    /// No pending work uses `p`, and nothing will.
+    unsafe fn destroy_shared(&self, p: SharedPipeline) {
+        // SAFETY: as the caller promises; null handles are no-ops.
+        unsafe {
+            self.device.destroy_pipeline(p.pipeline, None);
+            self.device.destroy_pipeline_layout(p.layout, None);
+            self.device.destroy_descriptor_set_layout(p.set_layout, None);
+        }
     }
 
     /// The Vulkan loader's entry points (surface creation needs them).
@@ -401,6 +477,10 @@ impl Drop for Context {
             let _ = self.device.device_wait_idle();
             if let Ok(mut guard) = self.allocator.lock() {
                 drop(guard.take());
+            }
+            let shared: Vec<SharedPipeline> = self.pipelines.lock().map(|mut t| t.drain().map(|(_, p)| p).collect()).unwrap_or_default();
+            for p in shared {
+                self.destroy_shared(p);
             }
             self.device.destroy_pipeline_cache(self.pipeline_cache, None);
             self.device.destroy_device(None);

@@ -6,6 +6,7 @@ use std::sync::Arc;
 use anyhow::{Context as _, Result, bail};
 use ash::vk;
 
+use super::context::{PipelineRecipe, SharedPipeline};
 use super::{Buffer, Context};
 use crate::layout::{Binding, Resource};
 
@@ -21,12 +22,13 @@ fn descriptor_type(b: &Binding) -> vk::DescriptorType {
 
 /// A compute pipeline over the bindings `bindings` (storage buffers and
 /// texel buffers), with a push-constant block of `push_constant_bytes`, and
-/// one descriptor set.
+/// one descriptor set. The pipeline and its layout belong to the context,
+/// which shares them between every `ComputePipeline` of the same recipe;
+/// the descriptor set is this one's own.
 pub struct ComputePipeline {
     ctx: Arc<Context>,
     pub pipeline: vk::Pipeline,
     pub layout: vk::PipelineLayout,
-    set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
     types: Vec<vk::DescriptorType>,
@@ -34,7 +36,9 @@ pub struct ComputePipeline {
 
 impl ComputePipeline {
     /// Builds the pipeline from SPIR-V, specialising `(constant_id, value)`
-    /// pairs: the driver removes the code paths they rule out.
+    /// pairs: the driver removes the code paths they rule out. The
+    /// pipeline and its layouts are the context's, made once per recipe
+    /// ([`Context::shared_pipeline`]); the descriptor set is this one's.
     pub fn new(
         ctx: &Arc<Context>,
         spirv: &[u32],
@@ -43,82 +47,37 @@ impl ComputePipeline {
         specialization: &[(u32, u32)],
     ) -> Result<ComputePipeline> {
         let device = &ctx.device;
-        let module_info = vk::ShaderModuleCreateInfo::default().code(spirv);
-        // SAFETY: valid SPIR-V compiled by shaderc (isomarch-shaders).
-        let module = unsafe { device.create_shader_module(&module_info, None) }.context("creating shader module")?;
-
         let types: Vec<vk::DescriptorType> = bindings.iter().map(descriptor_type).collect();
-        let layout_bindings: Vec<_> = bindings
-            .iter()
-            .zip(&types)
-            .map(|(b, &ty)| {
-                vk::DescriptorSetLayoutBinding::default()
-                    .binding(b.index)
-                    .descriptor_type(ty)
-                    .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            })
-            .collect();
+        let numbered: Vec<(u32, vk::DescriptorType)> = bindings.iter().map(|b| b.index).zip(types.iter().copied()).collect();
+        let recipe = PipelineRecipe::new(spirv, &numbered, push_constant_bytes, specialization);
+        let shared =
+            ctx.shared_pipeline(recipe, || make_pipeline(device, ctx.pipeline_cache, spirv, &numbered, push_constant_bytes, specialization))?;
         let mut this = ComputePipeline {
             ctx: Arc::clone(ctx),
-            pipeline: vk::Pipeline::null(),
-            layout: vk::PipelineLayout::null(),
-            set_layout: vk::DescriptorSetLayout::null(),
+            pipeline: shared.pipeline,
+            layout: shared.layout,
             pool: vk::DescriptorPool::null(),
             set: vk::DescriptorSet::null(),
             types: types.clone(),
         };
-        // From here on, `this` owns whatever was created and Drop cleans up.
-        let result = (|| -> Result<()> {
-            // SAFETY (whole block): create infos reference live locals only.
-            unsafe {
-                this.set_layout = device
-                    .create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings), None)
-                    .context("creating descriptor set layout")?;
-                let ranges = [vk::PushConstantRange::default().stage_flags(vk::ShaderStageFlags::COMPUTE).offset(0).size(push_constant_bytes)];
-                let set_layouts = [this.set_layout];
-                let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
-                if push_constant_bytes > 0 {
-                    layout_info = layout_info.push_constant_ranges(&ranges);
-                }
-                this.layout = device.create_pipeline_layout(&layout_info, None).context("creating pipeline layout")?;
-
-                let entries: Vec<_> = specialization
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &(id, _))| vk::SpecializationMapEntry { constant_id: id, offset: 4 * i as u32, size: 4 })
-                    .collect();
-                let data: Vec<u8> = specialization.iter().flat_map(|&(_, v)| v.to_ne_bytes()).collect();
-                let spec = vk::SpecializationInfo::default().map_entries(&entries).data(&data);
-                let stage = vk::PipelineShaderStageCreateInfo::default()
-                    .stage(vk::ShaderStageFlags::COMPUTE)
-                    .module(module)
-                    .name(c"main")
-                    .specialization_info(&spec);
-                let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(this.layout)];
-                this.pipeline =
-                    device.create_compute_pipelines(ctx.pipeline_cache, &info, None).map_err(|(_, e)| e).context("creating compute pipeline")?[0];
-
-                let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
-                for &ty in &types {
-                    match sizes.iter_mut().find(|s| s.ty == ty) {
-                        Some(s) => s.descriptor_count += 1,
-                        None => sizes.push(vk::DescriptorPoolSize { ty, descriptor_count: 1 }),
-                    }
-                }
-                this.pool = device
-                    .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None)
-                    .context("creating descriptor pool")?;
-                let set_layouts = [this.set_layout];
-                this.set = device
-                    .allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(this.pool).set_layouts(&set_layouts))
-                    .context("allocating descriptor set")?[0];
+        let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
+        for &ty in &types {
+            match sizes.iter_mut().find(|s| s.ty == ty) {
+                Some(s) => s.descriptor_count += 1,
+                None => sizes.push(vk::DescriptorPoolSize { ty, descriptor_count: 1 }),
             }
-            Ok(())
-        })();
-        // SAFETY: the module is only needed during pipeline creation.
-        unsafe { device.destroy_shader_module(module, None) };
-        result?;
+        }
+        // SAFETY: create infos reference live locals only; on an error
+        // `this` owns what was made and Drop destroys it.
+        unsafe {
+            this.pool = device
+                .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None)
+                .context("creating descriptor pool")?;
+            let set_layouts = [shared.set_layout];
+            this.set = device
+                .allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(this.pool).set_layouts(&set_layouts))
+                .context("allocating descriptor set")?[0];
+        }
         Ok(this)
     }
 
@@ -150,6 +109,74 @@ impl ComputePipeline {
     }
 }
 
+/// Makes a compute pipeline and its layouts from SPIR-V: one descriptor
+/// set of `bindings`, `push_constant_bytes` of push constants, and the
+/// `(constant_id, value)` specialisation.
+fn make_pipeline(
+    device: &ash::Device,
+    cache: vk::PipelineCache,
+    spirv: &[u32],
+    bindings: &[(u32, vk::DescriptorType)],
+    push_constant_bytes: u32,
+    specialization: &[(u32, u32)],
+) -> Result<SharedPipeline> {
+    let module_info = vk::ShaderModuleCreateInfo::default().code(spirv);
+    // SAFETY: valid SPIR-V compiled by shaderc (isomarch-shaders).
+    let module = unsafe { device.create_shader_module(&module_info, None) }.context("creating shader module")?;
+    let layout_bindings: Vec<_> = bindings
+        .iter()
+        .map(|&(index, ty)| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(index)
+                .descriptor_type(ty)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+        })
+        .collect();
+    let mut made = SharedPipeline { pipeline: vk::Pipeline::null(), layout: vk::PipelineLayout::null(), set_layout: vk::DescriptorSetLayout::null() };
+    // SAFETY (whole block): create infos reference live locals only.
+    let result = (|| -> Result<()> {
+        unsafe {
+            made.set_layout = device
+                .create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings), None)
+                .context("creating descriptor set layout")?;
+            let ranges = [vk::PushConstantRange::default().stage_flags(vk::ShaderStageFlags::COMPUTE).offset(0).size(push_constant_bytes)];
+            let set_layouts = [made.set_layout];
+            let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+            if push_constant_bytes > 0 {
+                layout_info = layout_info.push_constant_ranges(&ranges);
+            }
+            made.layout = device.create_pipeline_layout(&layout_info, None).context("creating pipeline layout")?;
+            let entries: Vec<_> = specialization
+                .iter()
+                .enumerate()
+                .map(|(i, &(id, _))| vk::SpecializationMapEntry { constant_id: id, offset: 4 * i as u32, size: 4 })
+                .collect();
+            let data: Vec<u8> = specialization.iter().flat_map(|&(_, v)| v.to_ne_bytes()).collect();
+            let spec = vk::SpecializationInfo::default().map_entries(&entries).data(&data);
+            let stage = vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .module(module)
+                .name(c"main")
+                .specialization_info(&spec);
+            let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(made.layout)];
+            made.pipeline = device.create_compute_pipelines(cache, &info, None).map_err(|(_, e)| e).context("creating compute pipeline")?[0];
+        }
+        Ok(())
+    })();
+    // SAFETY: the module is only needed during pipeline creation; on an
+    // error nothing made was handed out (null handles are no-ops).
+    unsafe {
+        device.destroy_shader_module(module, None);
+        if result.is_err() {
+            device.destroy_pipeline(made.pipeline, None);
+            device.destroy_pipeline_layout(made.layout, None);
+            device.destroy_descriptor_set_layout(made.set_layout, None);
+        }
+    }
+    result.map(|()| made)
+}
+
 /// Records the binding of a compute pipeline and its one descriptor set
 /// (`handles`), and `push` as its push constants.
 ///
@@ -175,14 +202,9 @@ impl Drop for ComputePipeline {
         if self.ctx.is_hung() {
             return;
         }
-        // SAFETY: no pending work uses these objects (see Buffer's Drop);
-        // destroying null handles is a no-op.
-        unsafe {
-            let d = &self.ctx.device;
-            d.destroy_pipeline(self.pipeline, None);
-            d.destroy_descriptor_pool(self.pool, None);
-            d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
-        }
+        // SAFETY: no pending work uses the set (see Buffer's Drop);
+        // destroying a null handle is a no-op. The pipeline and its
+        // layouts are the context's, destroyed with it.
+        unsafe { self.ctx.device.destroy_descriptor_pool(self.pool, None) };
     }
 }
