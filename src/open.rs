@@ -11,6 +11,7 @@ use std::time::Instant;
 use anyhow::{Result, bail};
 
 use crate::molecule::color::Legend;
+use crate::molecule::pbc::Pbc;
 use crate::molecule::playback::{FramingRule, Stager};
 use crate::molecule::{self, Molecule, MoleculeOptions};
 use crate::scene::Scene;
@@ -34,6 +35,8 @@ pub struct Source<'a> {
     pub frame: Option<usize>,
     /// Where a trajectory's camera looks.
     pub framing: FramingRule,
+    /// What is done about the periodic box (`--pbc`).
+    pub pbc: Pbc,
 }
 
 /// What the files hold, as read.
@@ -66,8 +69,13 @@ impl Source<'_> {
         // A PSF alone goes to the trajectory reader, which says why not.
         if self.trajectory.is_none() && !psf {
             let single = if molecule::is_molecule(path) {
-                let m = molecule::read(path)?;
-                if m.extra_models > 0 { None } else { Some(Opened::Molecule(m, started)) }
+                let mut m = molecule::read(path)?;
+                if m.extra_models > 0 {
+                    None
+                } else {
+                    self.whole(&mut m)?;
+                    Some(Opened::Molecule(m, started))
+                }
             } else {
                 Some(Opened::SceneFile)
             };
@@ -81,7 +89,10 @@ impl Source<'_> {
                 return Ok(single);
             }
         }
-        let t = molecule::trajectory::open(path, self.trajectory)?;
+        let (t, note) = molecule::trajectory::open_with(path, self.trajectory, self.pbc)?;
+        if let Some(note) = note {
+            eprintln!("{note}");
+        }
         let frames = t.len();
         let mut stager = Stager::new(t, self.molecule.clone(), self.framing)?.with_adjust(Box::new(move |s| adjust(s)));
         let (_, time, notes) = stager.text(0)?;
@@ -114,6 +125,16 @@ impl Source<'_> {
                 Input::Still(scene, None)
             }
         })
+    }
+
+    /// Makes the molecules of one structure whole in its box (`--pbc`),
+    /// saying so; refused where there is no box and one is asked for.
+    fn whole(&self, m: &mut Molecule) -> Result<()> {
+        let center = (self.pbc == Pbc::Center).then(|| molecule::build::kept_sites(m, &self.molecule, None)).transpose()?;
+        if let Some(note) = molecule::pbc::make_molecule_whole(m, self.pbc, center)? {
+            eprintln!("{note}");
+        }
+        Ok(())
     }
 
     /// The scene file, refused where molecule flags were given.

@@ -19,13 +19,20 @@ pub struct FramesArgs {
     /// counting every coordinate site: virtual sites and hydrogens too).
     #[arg(long, value_delimiter = ',', value_name = "I,J,...")]
     atoms: Vec<usize>,
+    /// Molecules split by the periodic box, as `render --pbc` (whole,
+    /// center, auto); by default the file's coordinates as they are.
+    #[arg(long, value_enum, default_value = "none")]
+    pbc: isomarch::molecule::pbc::Pbc,
 }
 
 /// `isomarch frames`: every frame's time and mean position, as CSV on
 /// stdout.
 pub fn run(args: FramesArgs) -> Result<()> {
     use std::io::Write as _;
-    let mut t = isomarch::molecule::trajectory::open(&args.topology, args.trajectory.as_deref())?;
+    let (mut t, note) = isomarch::molecule::trajectory::open_with(&args.topology, args.trajectory.as_deref(), args.pbc)?;
+    if let Some(note) = note {
+        eprintln!("{note}");
+    }
     let sites = t.topology.sites;
     if let Some(&i) = args.atoms.iter().find(|&&i| i >= sites) {
         bail!("--atoms {i}: the topology has {sites} atoms (0 to {})", sites - 1);
@@ -37,7 +44,7 @@ pub fn run(args: FramesArgs) -> Result<()> {
     }
     writeln!(out, "{header}")?;
     for k in 0..t.len() {
-        let f = t.frames.read(k)?;
+        let f = t.read(k)?;
         let present: Vec<glam::DVec3> = f.positions.iter().copied().filter(|p| p.is_finite()).collect();
         let mean = present.iter().fold(glam::DVec3::ZERO, |a, &p| a + p) / present.len().max(1) as f64;
         let mut row =
