@@ -37,6 +37,8 @@ pub struct Source<'a> {
     pub framing: FramingRule,
     /// What is done about the periodic box (`--pbc`).
     pub pbc: Pbc,
+    /// Frames made between each pair of saved ones (`--interpolate`).
+    pub interpolate: usize,
 }
 
 /// What the files hold, as read.
@@ -69,30 +71,32 @@ impl Source<'_> {
         // A PSF alone goes to the trajectory reader, which says why not.
         if self.trajectory.is_none() && !psf {
             let single = if molecule::is_molecule(path) {
-                let mut m = molecule::read(path)?;
-                if m.extra_models > 0 {
-                    None
-                } else {
-                    self.whole(&mut m)?;
-                    Some(Opened::Molecule(m, started))
-                }
+                let m = molecule::read(path)?;
+                if m.extra_models > 0 { None } else { Some(Opened::Molecule(m, started)) }
             } else {
                 Some(Opened::SceneFile)
             };
-            if let Some(single) = single {
+            if let Some(mut single) = single {
                 if let Some(k) = self.frame.filter(|&k| k > 0) {
                     bail!("--frame {k}: {} holds one frame (frame 0)", path.display());
+                }
+                if self.interpolate > 0 {
+                    bail!("--interpolate applies to trajectories and files of several models; {} holds one frame", path.display());
                 }
                 if self.framing != FramingRule::First {
                     bail!("--framing applies to trajectories and files of several models; {} holds one", path.display());
                 }
+                if let Opened::Molecule(m, _) = &mut single {
+                    self.whole(m)?;
+                }
                 return Ok(single);
             }
         }
-        let (t, note) = molecule::trajectory::open_with(path, self.trajectory, self.pbc)?;
+        let (mut t, note) = molecule::trajectory::open_with(path, self.trajectory, self.pbc)?;
         if let Some(note) = note {
             eprintln!("{note}");
         }
+        t.set_interpolate(self.interpolate);
         let frames = t.len();
         let mut stager = Stager::new(t, self.molecule.clone(), self.framing)?.with_adjust(Box::new(move |s| adjust(s)));
         let (_, time, notes) = stager.text(0)?;
@@ -100,8 +104,12 @@ impl Source<'_> {
             eprintln!("warning: {w}");
         }
         eprintln!("{}", notes.summary);
+        let interpolated = match self.interpolate {
+            0 => String::new(),
+            k => format!(" ({} saved, {k} interpolated between each two)", stager.trajectory.saved_len()),
+        };
         eprintln!(
-            "{}: {frames} frame{}{}",
+            "{}: {frames} frame{}{interpolated}{}",
             stager.trajectory.source,
             if frames == 1 { "" } else { "s" },
             time.map_or(String::new(), |t| format!(", the first at {} ps", molecule::trajectory::ps(t)))

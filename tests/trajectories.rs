@@ -490,3 +490,43 @@ fn pbc_none_keeps_the_files_coordinates_and_the_default_says_what_it_did() {
         .fails_in_one_line();
     assert_eq!(e, format!("error: {}: frame 0: --pbc whole: the file gives no periodic box", data("adk_dims.dcd")));
 }
+
+/// `--interpolate 3` on AdK's DCD: 4 x 97 + 1 frames, the saved ones
+/// every fourth, an interpolated frame's atoms at the midpoint (within
+/// f32) of the two saved frames' it lies between, and `frames` and the
+/// scene's note saying which saved frames those are.
+#[test]
+fn interpolated_frames_lie_between_the_saved_ones() {
+    use isomarch::molecule::trajectory::open;
+    let (top, traj) = (data("adk.psf"), data("adk_dims.dcd"));
+    let mut t = open(Path::new(&top), Some(Path::new(&traj))).unwrap();
+    let (a, b) = (t.read(40).unwrap(), t.read(41).unwrap());
+    t.set_interpolate(3);
+    assert_eq!(t.len(), 4 * 97 + 1);
+    assert_eq!(t.read(160).unwrap().positions, a.positions, "rendered frame 160 is saved frame 40");
+    let mid = t.read(162).unwrap();
+    for (i, ((p, q), m)) in a.positions.iter().zip(&b.positions).zip(&mid.positions).enumerate() {
+        let want = 0.5 * (*p + *q);
+        assert!((*m - want).abs().max_element() <= 1e-6 * want.abs().max_element().max(1.0), "atom {i}: {m} where the midpoint is {want}");
+    }
+    assert!(a.positions.iter().zip(&mid.positions).any(|(p, m)| (*p - *m).length() > 0.05), "AdK moves between saved frames 40 and 41");
+    let out = isomarch(["frames", &top, &traj, "--interpolate", "3", "--atoms", "0"]).ok();
+    let text = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 1 + 389);
+    assert!(lines[0].ends_with(",saved_from,saved_to,fraction"), "{}", lines[0]);
+    assert!(lines[1 + 162].starts_with("162,") && lines[1 + 162].ends_with(",40,41,0.500000"), "{}", lines[1 + 162]);
+    assert!(lines[1 + 388].ends_with(",97,97,0.000000"), "{}", lines[1 + 388]);
+    let dir = scratch("traj-interpolate");
+    let ron = dir.join("f162.ron");
+    let o = isomarch(["scene", &top, &traj, "--interpolate", "3", "--frame", "162", "-o", ron.to_str().unwrap()]).ok();
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("389 frames (98 saved, 3 interpolated between each two)"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let scene = std::fs::read_to_string(&ron).unwrap();
+    assert!(scene.contains("Frame 162 of") && scene.contains("389 frames, 0.5000 of the way from saved frame 40 to 41 of 98"), "{}", &scene[..600]);
+    let e = isomarch(["render", &data("adk_oplsaa.gro.gz"), "--interpolate", "3", "-o", dir.join("x.png").to_str().unwrap()]).fails_in_one_line();
+    assert!(e.contains("--interpolate applies to trajectories"), "{e}");
+}

@@ -116,6 +116,7 @@ impl MoleculeArgs {
             frame: play.frame,
             framing: play.framing,
             pbc: play.pbc,
+            interpolate: play.interpolate,
         })
     }
 }
@@ -140,6 +141,12 @@ pub struct PlayArgs {
     /// frame is split by it, with a note on stderr; else none.
     #[arg(long, value_enum, default_value_t)]
     pub pbc: Pbc,
+    /// Make K frames between each pair of saved trajectory frames, the
+    /// atoms' positions interpolated linearly (the short way across the
+    /// periodic box): N saved frames become (N-1)(K+1)+1, and frame r lies
+    /// (r mod (K+1))/(K+1) of the way from saved frame r/(K+1) to the next.
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    pub interpolate: usize,
 }
 
 /// The device flags of every command that uses the GPU.

@@ -23,6 +23,11 @@ pub struct FramesArgs {
     /// center, auto); by default the file's coordinates as they are.
     #[arg(long, value_enum, default_value = "none")]
     pbc: isomarch::molecule::pbc::Pbc,
+    /// K frames between each pair of saved ones, as `render
+    /// --interpolate`; adds the columns saved_from, saved_to and fraction
+    /// (how far from the first to the second).
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    interpolate: usize,
 }
 
 /// `isomarch frames`: every frame's time and mean position, as CSV on
@@ -33,6 +38,7 @@ pub fn run(args: FramesArgs) -> Result<()> {
     if let Some(note) = note {
         eprintln!("{note}");
     }
+    t.set_interpolate(args.interpolate);
     let sites = t.topology.sites;
     if let Some(&i) = args.atoms.iter().find(|&&i| i >= sites) {
         bail!("--atoms {i}: the topology has {sites} atoms (0 to {})", sites - 1);
@@ -41,6 +47,9 @@ pub fn run(args: FramesArgs) -> Result<()> {
     let mut header = "frame,time_ps,atoms,mean_x,mean_y,mean_z".to_string();
     for i in &args.atoms {
         header.push_str(&format!(",x{i},y{i},z{i}"));
+    }
+    if args.interpolate > 0 {
+        header.push_str(",saved_from,saved_to,fraction");
     }
     writeln!(out, "{header}")?;
     for k in 0..t.len() {
@@ -52,6 +61,10 @@ pub fn run(args: FramesArgs) -> Result<()> {
         for &i in &args.atoms {
             let p = f.positions[i];
             row.push_str(&format!(",{:.6},{:.6},{:.6}", p.x, p.y, p.z));
+        }
+        if args.interpolate > 0 {
+            let (i, j, f) = t.between(k);
+            row.push_str(&format!(",{i},{j},{f:.6}"));
         }
         writeln!(out, "{row}")?;
     }

@@ -119,7 +119,12 @@ impl Stager {
         let frame = self.trajectory.read(k)?;
         let m = self.trajectory.molecule_at(&frame)?;
         let time = frame.time_ps.map_or(String::new(), |t| format!(", t = {} ps", super::trajectory::ps(t)));
-        let note = format!("Frame {k} of {} ({} frames{time}), camera on {}.", self.trajectory.source, self.len(), describe(&self.framing));
+        let between = match self.trajectory.between(k) {
+            _ if self.trajectory.interpolate == 0 => String::new(),
+            (i, j, _) if i == j => format!(", saved frame {i} of {}", self.trajectory.saved_len()),
+            (i, j, t) => format!(", {t:.4} of the way from saved frame {i} to {j} of {}", self.trajectory.saved_len()),
+        };
+        let note = format!("Frame {k} of {} ({} frames{between}{time}), camera on {}.", self.trajectory.source, self.len(), describe(&self.framing));
         let stage = Stage { framing: Some(self.framing), note: &note, frame: k, picks: Some(&self.picks) };
         let (text, notes) = staged_text(&m, &self.options, stage)?;
         Ok((text, frame.time_ps, notes))
@@ -198,6 +203,9 @@ pub struct Staged {
     pub scene: Scene,
     /// Wall time spent reading the frame and building its scene.
     pub decode: Duration,
+    /// The saved frames it lies between and how far from the first
+    /// ([`Trajectory::between`]; (k, k, 0) for saved frame k).
+    pub between: (usize, usize, f64),
 }
 
 struct Request {
@@ -296,8 +304,11 @@ fn decode_loop(mut stager: Stager, requests: &mpsc::Receiver<Request>, out: &mps
         };
         at += 1;
         let started = Instant::now();
-        let staged =
-            stager.scene(frame).map(|(scene, time_ps)| Staged { frame, time_ps, scene, decode: started.elapsed() }).map_err(|e| format!("{e:#}"));
+        let between = stager.trajectory.between(frame);
+        let staged = stager
+            .scene(frame)
+            .map(|(scene, time_ps)| Staged { frame, time_ps, scene, decode: started.elapsed(), between })
+            .map_err(|e| format!("{e:#}"));
         let failed = staged.is_err();
         if out.send((current.generation, staged)).is_err() {
             return;
@@ -348,7 +359,7 @@ mod tests {
         for a in &mut topology.atoms {
             a.position = first.positions[a.site];
         }
-        Trajectory { topology, source: "t.xtc".into(), frames: Box::new(Moving), unwrap: None }
+        Trajectory { topology, source: "t.xtc".into(), frames: Box::new(Moving), unwrap: None, interpolate: 0, saved: Vec::new() }
     }
 
     #[test]
