@@ -8,10 +8,13 @@ use anyhow::{Result, bail};
 
 pub mod merge;
 
-/// The header of a batch's per-frame statistics CSV.
+/// The header of a batch's per-frame statistics CSV. `saved_from`,
+/// `saved_to` and `fraction` say which saved frames of a trajectory a
+/// frame lies between and how far from the first (`--interpolate`; k, k
+/// and 0 for saved frame k; empty for a scene).
 /// The last column, `scene`, is the scene or molecule file the frame shows:
 /// a batch appends only to a CSV of its own scene ([`check_csv`]).
-pub const CSV_HEADER: &str = "frame,time_s,file,width,height,method,steps_per_ray,evals_per_ray,hit_rate,gpu_ms,wall_ms,index_build_ms,shadow_steps_per_ray,ao_steps_per_ray,any_hit_gpu_ms,scene";
+pub const CSV_HEADER: &str = "frame,time_s,file,width,height,method,steps_per_ray,evals_per_ray,hit_rate,gpu_ms,wall_ms,saved_from,saved_to,fraction,index_build_ms,shadow_steps_per_ray,ao_steps_per_ray,any_hit_gpu_ms,scene";
 
 /// A CSV field in double quotes, its quotes doubled.
 fn quoted(field: &str) -> String {
@@ -273,7 +276,7 @@ mod tests {
             assert_eq!(last_quoted_field(&format!("0,1.0,{}", quoted(scene))).as_deref(), Some(scene));
         }
         let csv = std::path::Path::new("out/frames.csv");
-        let text = format!("{CSV_HEADER}\n0,0.000000,\"out/f_0.png\",8,8,segment,1,1,1,,1,,,,,{}\n", quoted("scenes/fig16.ron"));
+        let text = format!("{CSV_HEADER}\n0,0.000000,\"out/f_0.png\",8,8,segment,1,1,1,,1,,,,,,,,{}\n", quoted("scenes/fig16.ron"));
         check_csv(csv, &text, "scenes/fig16.ron").unwrap();
         let e = check_csv(csv, &text, "3KPR.pdb").unwrap_err().to_string();
         assert!(e.contains("out/frames.csv:2: lists a frame of scenes/fig16.ron, and this batch renders 3KPR.pdb"), "{e}");
@@ -523,10 +526,13 @@ pub fn run(
                     break;
                 }
                 let started = std::time::Instant::now();
+                let mut saved = ",,".to_string();
                 if let Some(prefetch) = frames.as_mut() {
                     let staged = prefetch.wait().ok_or_else(|| anyhow::anyhow!("the trajectory's decoder stopped before frame {frame}"))??;
                     anyhow::ensure!(staged.frame as u64 == frame, "the decoder gave frame {} for frame {frame}", staged.frame);
                     shown = staged.scene.at_time(frame as f64 / fps).recentred_on_camera();
+                    let (i, j, f) = staged.between;
+                    saved = format!("{i},{j},{f:.6}");
                     renderer.set_scene(&shown)?;
                     index_built = true;
                 } else if animated {
@@ -566,7 +572,7 @@ pub fn run(
                     stats.hit_rate,
                     stats.gpu_ms.map_or(String::new(), |ms| format!("{ms:.2}")),
                 );
-                let tail = format!("{index_ms},{},{}", any_hit_columns(stats.any_hit.as_ref()), quoted(&job.scene.source));
+                let tail = format!("{saved},{index_ms},{},{}", any_hit_columns(stats.any_hit.as_ref()), quoted(&job.scene.source));
                 let row = (head, tail);
                 // The writer stopped only on an error, which its join reports.
                 if landed.send(Landed { image, path, row, started }).is_err() {

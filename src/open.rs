@@ -11,6 +11,7 @@ use std::time::Instant;
 use anyhow::{Result, bail};
 
 use crate::molecule::color::Legend;
+use crate::molecule::pbc::Pbc;
 use crate::molecule::playback::{FramingRule, Stager};
 use crate::molecule::{self, Molecule, MoleculeOptions};
 use crate::scene::Scene;
@@ -34,6 +35,10 @@ pub struct Source<'a> {
     pub frame: Option<usize>,
     /// Where a trajectory's camera looks.
     pub framing: FramingRule,
+    /// What is done about the periodic box (`--pbc`).
+    pub pbc: Pbc,
+    /// Frames made between each pair of saved ones (`--interpolate`).
+    pub interpolate: usize,
 }
 
 /// What the files hold, as read.
@@ -71,17 +76,27 @@ impl Source<'_> {
             } else {
                 Some(Opened::SceneFile)
             };
-            if let Some(single) = single {
+            if let Some(mut single) = single {
                 if let Some(k) = self.frame.filter(|&k| k > 0) {
                     bail!("--frame {k}: {} holds one frame (frame 0)", path.display());
+                }
+                if self.interpolate > 0 {
+                    bail!("--interpolate applies to trajectories and files of several models; {} holds one frame", path.display());
                 }
                 if self.framing != FramingRule::First {
                     bail!("--framing applies to trajectories and files of several models; {} holds one", path.display());
                 }
+                if let Opened::Molecule(m, _) = &mut single {
+                    self.whole(m)?;
+                }
                 return Ok(single);
             }
         }
-        let t = molecule::trajectory::open(path, self.trajectory)?;
+        let (mut t, note) = molecule::trajectory::open_with(path, self.trajectory, self.pbc)?;
+        if let Some(note) = note {
+            eprintln!("{note}");
+        }
+        t.set_interpolate(self.interpolate);
         let frames = t.len();
         let mut stager = Stager::new(t, self.molecule.clone(), self.framing)?.with_adjust(Box::new(move |s| adjust(s)));
         let (_, time, notes) = stager.text(0)?;
@@ -89,8 +104,12 @@ impl Source<'_> {
             eprintln!("warning: {w}");
         }
         eprintln!("{}", notes.summary);
+        let interpolated = match self.interpolate {
+            0 => String::new(),
+            k => format!(" ({} saved, {k} interpolated between each two)", stager.trajectory.saved_len()),
+        };
         eprintln!(
-            "{}: {frames} frame{}{}",
+            "{}: {frames} frame{}{interpolated}{}",
             stager.trajectory.source,
             if frames == 1 { "" } else { "s" },
             time.map_or(String::new(), |t| format!(", the first at {} ps", molecule::trajectory::ps(t)))
@@ -114,6 +133,16 @@ impl Source<'_> {
                 Input::Still(scene, None)
             }
         })
+    }
+
+    /// Makes the molecules of one structure whole in its box (`--pbc`),
+    /// saying so; refused where there is no box and one is asked for.
+    fn whole(&self, m: &mut Molecule) -> Result<()> {
+        let center = (self.pbc == Pbc::Center).then(|| molecule::build::kept_sites(m, &self.molecule, None)).transpose()?;
+        if let Some(note) = molecule::pbc::make_molecule_whole(m, self.pbc, center)? {
+            eprintln!("{note}");
+        }
+        Ok(())
     }
 
     /// The scene file, refused where molecule flags were given.

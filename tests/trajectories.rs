@@ -387,3 +387,146 @@ fn times_are_rounded_and_a_range_past_the_end_names_its_first_missing_frame() {
         std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).filter(|n| n.to_string_lossy().ends_with(".png")).collect();
     assert!(written.is_empty(), "frames written: {written:?}");
 }
+
+/// The protein of AdK's GRO (its first 3341 sites) in every frame of its
+/// XTC, made whole (`--pbc whole`), against the file's coordinates and
+/// MDAnalysis's `make_whole` (scripts/pbc-reference.py): every atom moved
+/// by whole box vectors, by the same ones as MDAnalysis moved it, up to
+/// one shift of the whole molecule per frame (MDAnalysis keeps the first
+/// atom where the file has it, which makes the protein jump when that
+/// atom crosses a face; isomarch keeps it from jumping, and moves it
+/// nowhere in frame 0); every bond MDAnalysis guessed shorter than 2 Å.
+#[test]
+fn adk_is_made_whole_as_mdanalysis_makes_it() {
+    use isomarch::molecule::pbc::Pbc;
+    use isomarch::molecule::trajectory::open_with;
+    const PROTEIN: usize = 3341;
+    let (top, traj) = (data("adk_oplsaa.gro.gz"), data("adk_oplsaa.xtc"));
+    let (mut raw, none) = open_with(Path::new(&top), Some(Path::new(&traj)), Pbc::None).unwrap();
+    assert!(none.is_none());
+    let (mut whole, note) = open_with(Path::new(&top), Some(Path::new(&traj)), Pbc::Auto).unwrap();
+    let note = note.expect("the default makes the split protein whole, with a note");
+    assert!(note.contains("split by the periodic box") && note.contains("--pbc none"), "{note}");
+    let (_, bonds) = rows(&std::fs::read_to_string(data("reference/adk_oplsaa_bonds.csv")).unwrap());
+    assert_eq!(bonds.len(), 3365, "MDAnalysis's bonds (the PSF of the same protein lists 3365 too)");
+    let (_, moved) = rows(&std::fs::read_to_string(data("reference/adk_oplsaa_whole.csv")).unwrap());
+    let mut previous_centre: Option<glam::DVec3> = None;
+    for k in 0..raw.len() {
+        let (r, w) = (raw.read(k).unwrap(), whole.read(k).unwrap());
+        let cell = r.cell.expect("the XTC gives a box");
+        assert_eq!(w.cell, r.cell);
+        let mut mda = vec![[0i64; 3]; PROTEIN];
+        for m in moved.iter().filter(|m| m[0] as usize == k) {
+            mda[m[1] as usize] = [m[2] as i64, m[3] as i64, m[4] as i64];
+        }
+        assert!(k > 0 || mda.iter().any(|n| *n != [0; 3]), "frame 0 of the file is split");
+        let mut offset: Option<[i64; 3]> = None;
+        for (i, m) in mda.iter().enumerate() {
+            let shift = w.positions[i] - r.positions[i];
+            let n = cell.counts(shift);
+            assert!(
+                (cell.matrix * glam::DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64) - shift).length() < 1e-6,
+                "frame {k} atom {i}: not whole box vectors"
+            );
+            let d = [n[0] - m[0], n[1] - m[1], n[2] - m[2]];
+            match offset {
+                None => offset = Some(d),
+                Some(o) => assert_eq!(d, o, "frame {k} atom {i}: moved by {n:?}, MDAnalysis by {m:?}, where the atoms before differ by {o:?}"),
+            }
+        }
+        if k == 0 {
+            assert_eq!(offset, Some([0, 0, 0]), "frame 0 is MDAnalysis's, atom for atom");
+        }
+        for b in &bonds {
+            let d = (w.positions[b[0] as usize] - w.positions[b[1] as usize]).length();
+            assert!(d < 2.0, "frame {k}: atoms {} and {} are {d:.2} Å apart", b[0], b[1]);
+        }
+        let centre = w.positions[..PROTEIN].iter().fold(glam::DVec3::ZERO, |a, &p| a + p) / PROTEIN as f64;
+        if let Some(p) = previous_centre {
+            assert!((centre - p).length() < 5.0, "frame {k}: the protein's centre jumped from {p} to {centre}");
+        }
+        previous_centre = Some(centre);
+    }
+    // A seek gives the frame that reading in order gave.
+    let (mut seek, _) = open_with(Path::new(&top), Some(Path::new(&traj)), Pbc::Whole).unwrap();
+    let last = whole.len() - 1;
+    assert_eq!(seek.read(last).unwrap(), whole.read(last).unwrap());
+    assert_eq!(seek.read(3).unwrap(), whole.read(3).unwrap());
+}
+
+/// `--pbc`: the default note on stderr, `--pbc none` the file's
+/// coordinates (the scene, and so the image, of a copy of the file
+/// without its box: what every version before `--pbc` drew), and a box
+/// asked for where there is none refused in one line.
+#[test]
+fn pbc_none_keeps_the_files_coordinates_and_the_default_says_what_it_did() {
+    let dir = scratch("traj-pbc");
+    let gro = data("adk_oplsaa.gro.gz");
+    let mut text = String::new();
+    std::io::Read::read_to_string(&mut flate2::read::GzDecoder::new(std::fs::File::open(&gro).unwrap()), &mut text).unwrap();
+    let boxless = dir.join("adk_nobox.gro");
+    let mut lines: Vec<&str> = text.lines().collect();
+    let last = lines.len() - 1;
+    lines[last] = "   0.00000   0.00000   0.00000";
+    std::fs::write(&boxless, lines.join("\n") + "\n").unwrap();
+    let scene = |input: &str, name: &str, extra: &[&str]| -> (String, String) {
+        let out = dir.join(name);
+        let o = isomarch(["scene", input, "-o", out.to_str().unwrap()]).args(extra).ok();
+        // Without the comments, which name the file.
+        let text = std::fs::read_to_string(out).unwrap().lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");
+        (text, String::from_utf8_lossy(&o.stderr).into_owned())
+    };
+    let (before, quiet) = scene(boxless.to_str().unwrap(), "before.ron", &[]);
+    assert!(!quiet.contains("periodic box"), "{quiet}");
+    let (none, quiet) = scene(&gro, "none.ron", &["--pbc", "none"]);
+    assert!(!quiet.contains("periodic box"), "{quiet}");
+    assert_eq!(none, before, "--pbc none is the file's coordinates");
+    let (auto, note) = scene(&gro, "auto.ron", &[]);
+    assert!(note.contains("adk_oplsaa.gro.gz: a molecule of the structure is split by the periodic box (triclinic"), "{note}");
+    assert_ne!(auto, none, "the default makes AdK whole");
+    let (centred, _) = scene(&gro, "center.ron", &["--pbc", "center"]);
+    assert_ne!(centred, auto);
+    let e = isomarch(["render", &data("adk.psf"), &data("adk_dims.dcd"), "--pbc", "whole", "-o", dir.join("x.png").to_str().unwrap()])
+        .fails_in_one_line();
+    assert_eq!(e, format!("error: {}: frame 0: --pbc whole: the file gives no periodic box", data("adk_dims.dcd")));
+}
+
+/// `--interpolate 3` on AdK's DCD: 4 x 97 + 1 frames, the saved ones
+/// every fourth, an interpolated frame's atoms at the midpoint (within
+/// f32) of the two saved frames' it lies between, and `frames` and the
+/// scene's note saying which saved frames those are.
+#[test]
+fn interpolated_frames_lie_between_the_saved_ones() {
+    use isomarch::molecule::trajectory::open;
+    let (top, traj) = (data("adk.psf"), data("adk_dims.dcd"));
+    let mut t = open(Path::new(&top), Some(Path::new(&traj))).unwrap();
+    let (a, b) = (t.read(40).unwrap(), t.read(41).unwrap());
+    t.set_interpolate(3);
+    assert_eq!(t.len(), 4 * 97 + 1);
+    assert_eq!(t.read(160).unwrap().positions, a.positions, "rendered frame 160 is saved frame 40");
+    let mid = t.read(162).unwrap();
+    for (i, ((p, q), m)) in a.positions.iter().zip(&b.positions).zip(&mid.positions).enumerate() {
+        let want = 0.5 * (*p + *q);
+        assert!((*m - want).abs().max_element() <= 1e-6 * want.abs().max_element().max(1.0), "atom {i}: {m} where the midpoint is {want}");
+    }
+    assert!(a.positions.iter().zip(&mid.positions).any(|(p, m)| (*p - *m).length() > 0.05), "AdK moves between saved frames 40 and 41");
+    let out = isomarch(["frames", &top, &traj, "--interpolate", "3", "--atoms", "0"]).ok();
+    let text = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 1 + 389);
+    assert!(lines[0].ends_with(",saved_from,saved_to,fraction"), "{}", lines[0]);
+    assert!(lines[1 + 162].starts_with("162,") && lines[1 + 162].ends_with(",40,41,0.500000"), "{}", lines[1 + 162]);
+    assert!(lines[1 + 388].ends_with(",97,97,0.000000"), "{}", lines[1 + 388]);
+    let dir = scratch("traj-interpolate");
+    let ron = dir.join("f162.ron");
+    let o = isomarch(["scene", &top, &traj, "--interpolate", "3", "--frame", "162", "-o", ron.to_str().unwrap()]).ok();
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("389 frames (98 saved, 3 interpolated between each two)"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let scene = std::fs::read_to_string(&ron).unwrap();
+    assert!(scene.contains("Frame 162 of") && scene.contains("389 frames, 0.5000 of the way from saved frame 40 to 41 of 98"), "{}", &scene[..600]);
+    let e = isomarch(["render", &data("adk_oplsaa.gro.gz"), "--interpolate", "3", "-o", dir.join("x.png").to_str().unwrap()]).fails_in_one_line();
+    assert!(e.contains("--interpolate applies to trajectories"), "{e}");
+}

@@ -225,6 +225,14 @@ class Trajectory:
     into blobs by ``options`` or its fields as keywords (as
     :meth:`Scene.from_molecule` takes them). Frames are read when asked
     for, one at a time: ``len(t)``, ``t[k]``, ``for scene in t``.
+
+    ``pbc`` is the command line's ``--pbc``: ``"auto"`` (molecules split by
+    the periodic box made whole where the file has a box and one is split;
+    the note is among :attr:`warnings`), ``"whole"``, ``"center"`` or
+    ``"none"`` (the file's coordinates). ``interpolate=K`` is
+    ``--interpolate K``: K frames between each pair of saved ones, the
+    atoms' positions interpolated linearly; each scene's ``between`` says
+    which saved frames it lies between and how far from the first.
     """
 
     def __init__(
@@ -234,6 +242,8 @@ class Trajectory:
         *,
         framing: str = "first",
         options: Optional[MoleculeOptions] = None,
+        pbc: str = "auto",
+        interpolate: int = 0,
         **fields,
     ):
         self._native, warnings, summary = _native.trajectory_open(
@@ -241,7 +251,10 @@ class Trajectory:
             None if trajectory is None else _os.fspath(trajectory),
             framing,
             _molecule_options(options, fields),
+            str(pbc),
+            int(interpolate),
         )
+        self._interpolate = int(interpolate)
         #: Warnings from reading the topology.
         self.warnings = list(warnings)
         #: What the first frame became: atoms used and left out.
@@ -260,6 +273,9 @@ class Trajectory:
         scene = Scene(native, self.warnings, self.summary)
         #: The frame's simulation time in picoseconds, where the file gives one.
         scene.time_ps = time_ps
+        #: The saved frames it lies between and how far from the first:
+        #: (k, k, 0.0) for saved frame k.
+        scene.between = self._native.between(k)
         return scene
 
     def __iter__(self):
@@ -277,6 +293,7 @@ class Trajectory:
         renderer: Optional["Renderer"] = None,
         method: Optional[str] = None,
         samples: Optional[int] = None,
+        interpolate: Optional[int] = None,
         **look,
     ) -> None:
         """Writes the frames as a movie: ``.mp4`` (H.264), ``.webm`` (VP9)
@@ -290,7 +307,18 @@ class Trajectory:
         them. Frames stream to the encoder as they are rendered; the movie
         is written whole or not at all (an error or KeyboardInterrupt
         leaves no file). MP4 and WebM need ffmpeg (Debian's ``ffmpeg``
-        package): without it, :class:`IsomarchError` before any frame."""
+        package): without it, :class:`IsomarchError` before any frame.
+        ``interpolate=K`` makes K frames between each pair of saved ones for
+        this movie (``--interpolate K``; ``frames`` then counts those)."""
+        if interpolate is not None and int(interpolate) != self._interpolate:
+            before = self._interpolate
+            self._native.set_interpolate(int(interpolate))
+            self._interpolate = int(interpolate)
+            try:
+                return self.movie(path, fps, size=size, quality=quality, frames=frames, renderer=renderer, method=method, samples=samples, **look)
+            finally:
+                self._native.set_interpolate(before)
+                self._interpolate = before
         frames = range(len(self)) if frames is None else frames
         if len(frames) == 0:
             raise IsomarchError("no frame to write: frames is empty")

@@ -62,7 +62,7 @@ class NativeTrajectory:
     def scene(self, k: int) -> Tuple[NativeScene, Optional[float]]: ...
 
 def trajectory_open(
-    topology: str, trajectory: Optional[str], framing: str, options: MoleculeOptions
+    topology: str, trajectory: Optional[str], framing: str, options: MoleculeOptions, pbc: str, interpolate: int
 ) -> Tuple[NativeTrajectory, list, str]: ...
 
 class NativeMovie:

@@ -507,6 +507,21 @@ impl NativeTrajectory {
         self.source.clone()
     }
 
+    /// Makes `k` frames between each pair of saved ones (`--interpolate`);
+    /// the number of frames after.
+    fn set_interpolate(&mut self, k: usize) -> PyResult<usize> {
+        let mut stager = self.stager.lock().map_err(|_| IsomarchError::new_err("the trajectory's lock is poisoned"))?;
+        stager.trajectory.set_interpolate(k);
+        self.len = stager.len();
+        Ok(self.len)
+    }
+
+    /// The saved frames frame `k` lies between, and how far from the first.
+    fn between(&self, k: usize) -> PyResult<(usize, usize, f64)> {
+        let stager = self.stager.lock().map_err(|_| IsomarchError::new_err("the trajectory's lock is poisoned"))?;
+        Ok(stager.trajectory.between(k))
+    }
+
     /// Frame `k`'s scene and simulation time (ps, or None).
     fn scene(&self, py: Python<'_>, k: usize) -> PyResult<(NativeScene, Option<f64>)> {
         let stager = &self.stager;
@@ -516,24 +531,29 @@ impl NativeTrajectory {
 }
 
 #[pyfunction]
-#[pyo3(signature = (topology, trajectory, framing, options))]
+#[pyo3(signature = (topology, trajectory, framing, options, pbc, interpolate))]
 fn trajectory_open(
     py: Python<'_>,
     topology: PathBuf,
     trajectory: Option<PathBuf>,
     framing: Choice<isomarch::molecule::playback::FramingRule>,
     options: &NativeMoleculeOptions,
+    pbc: Choice<isomarch::molecule::pbc::Pbc>,
+    interpolate: usize,
 ) -> PyResult<(NativeTrajectory, Vec<String>, String)> {
     use isomarch::molecule::playback::Stager;
-    let (o, rule) = (options.options.clone(), framing.0);
-    let (stager, notes) = py
+    let (o, rule, pbc) = (options.options.clone(), framing.0, pbc.0);
+    let (stager, mut notes, pbc_note) = py
         .detach(|| -> anyhow::Result<_> {
-            let t = isomarch::molecule::trajectory::open(&topology, trajectory.as_deref())?;
+            let (mut t, pbc_note) = isomarch::molecule::trajectory::open_with(&topology, trajectory.as_deref(), pbc)?;
+            t.set_interpolate(interpolate);
             let mut stager = Stager::new(t, o, rule)?;
             let (_, _, notes) = stager.text(0)?;
-            Ok((stager, notes))
+            Ok((stager, notes, pbc_note))
         })
         .map_err(raise)?;
+    // What --pbc did goes with the warnings, as the command line's note.
+    notes.warnings.extend(pbc_note);
     let (len, source) = (stager.len(), stager.trajectory.source.clone());
     Ok((NativeTrajectory { stager: std::sync::Mutex::new(stager), len, source }, notes.warnings, notes.summary))
 }

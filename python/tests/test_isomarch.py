@@ -454,6 +454,35 @@ def test_a_trajectory_movie_equals_the_clis_byte_for_byte(renderer, tmp_path, ex
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([f"cli.{ext}", f"cli.{ext}.csv", f"py.{ext}"])
 
 
+def test_an_interpolated_movie_equals_the_clis_and_says_which_saved_frames(renderer, tmp_path):
+    cli("render", *ADK, "--interpolate", "3", "--frames", "0..6", "--size", "64x64", "-o", tmp_path / "cli.gif")
+    frames = isomarch.Trajectory(*ADK)
+    assert len(frames) == 98
+    frames.movie(tmp_path / "py.gif", frames=range(6), size=(64, 64), renderer=renderer, interpolate=3)
+    assert len(frames) == 98, "interpolate= applies to the movie only"
+    cli_bytes, py_bytes = (tmp_path / "cli.gif").read_bytes(), (tmp_path / "py.gif").read_bytes()
+    assert len(py_bytes) > 1000 and py_bytes == cli_bytes, f"Python's movie ({len(py_bytes)} bytes) is not the CLI's ({len(cli_bytes)})"
+    smooth = isomarch.Trajectory(*ADK, interpolate=3)
+    assert len(smooth) == 4 * 97 + 1
+    assert smooth[6].between == (1, 2, 0.5) and smooth[4].between == (1, 1, 0.0)
+    rows = (tmp_path / "cli.gif.csv").read_text().splitlines()
+    head = rows[0].split(",")
+    row = dict(zip(head, rows[1 + 5].split(",")))
+    assert (row["saved_from"], row["saved_to"], row["fraction"]) == ("1", "2", "0.250000"), row
+
+
+def test_a_gro_split_by_its_box_is_made_whole_with_a_note(renderer):
+    gro = ROOT / "tests/data/trajectories/adk_oplsaa.gro.gz"
+    xtc = ROOT / "tests/data/trajectories/adk_oplsaa.xtc"
+    whole = isomarch.Trajectory(gro, xtc)
+    assert any("split by the periodic box" in w for w in whole.warnings), whole.warnings
+    none = isomarch.Trajectory(gro, xtc, pbc="none")
+    assert not any("periodic box" in w for w in none.warnings)
+    # Framed on the molecule: whole, it fills more of the picture.
+    covered = [(renderer.render(t[0], (32, 32)).rgba != renderer.render(t[0], (32, 32)).rgba[0, 0]).any(axis=-1).sum() for t in (whole, none)]
+    assert covered[0] > covered[1], covered
+
+
 def test_a_movie_without_ffmpeg_is_refused_before_any_frame(tmp_path, monkeypatch):
     frames = isomarch.Trajectory(*ADK)
     monkeypatch.setenv("PATH", str(tmp_path / "nothing"))

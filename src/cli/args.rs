@@ -12,6 +12,7 @@ use clap::Args;
 use isomarch::checks;
 use isomarch::gpu::{Context, ContextOptions};
 use isomarch::method::Method;
+use isomarch::molecule::pbc::Pbc;
 use isomarch::molecule::playback::FramingRule;
 use isomarch::molecule::{MoleculeChoices, MoleculeOptions};
 use isomarch::open::{Adjust, Input, Source};
@@ -107,7 +108,16 @@ impl MoleculeArgs {
     /// frame and framing.
     pub fn source<'a>(&self, path: &'a Path, trajectory: Option<&'a Path>, play: &PlayArgs) -> Result<Source<'a>> {
         let choices = self.choices()?;
-        Ok(Source { path, trajectory, molecule: choices.resolve(), molecule_flags: choices.flags(), frame: play.frame, framing: play.framing })
+        Ok(Source {
+            path,
+            trajectory,
+            molecule: choices.resolve(),
+            molecule_flags: choices.flags(),
+            frame: play.frame,
+            framing: play.framing,
+            pbc: play.pbc,
+            interpolate: play.interpolate,
+        })
     }
 }
 
@@ -122,6 +132,21 @@ pub struct PlayArgs {
     /// frame's atoms, or at every frame's (one pass over the trajectory first).
     #[arg(long, value_enum, default_value_t)]
     pub framing: FramingRule,
+    /// Molecules split by the periodic box: made whole (each molecule's
+    /// atoms moved by whole box vectors, bonds guessed by residue and
+    /// distance or taken from a PSF; kept from jumping between frames),
+    /// also centred (the centre of the atoms drawn in the box's centre),
+    /// or left as the file has them. Auto: whole where the file gives a
+    /// box (GRO, XTC, DCD with unit cells) and a molecule of the first
+    /// frame is split by it, with a note on stderr; else none.
+    #[arg(long, value_enum, default_value_t)]
+    pub pbc: Pbc,
+    /// Make K frames between each pair of saved trajectory frames, the
+    /// atoms' positions interpolated linearly (the short way across the
+    /// periodic box): N saved frames become (N-1)(K+1)+1, and frame r lies
+    /// (r mod (K+1))/(K+1) of the way from saved frame r/(K+1) to the next.
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    pub interpolate: usize,
 }
 
 /// The device flags of every command that uses the GPU.

@@ -762,7 +762,7 @@ mod tests {
                 ..Default::default()
             })
             .collect();
-        Molecule { source: "m.pdb".into(), atoms, skipped_sites: None, extra_models: 0, sites: elements.len() }
+        Molecule { source: "m.pdb".into(), atoms, skipped_sites: None, extra_models: 0, sites: elements.len(), cell: None, bonds: Vec::new() }
     }
 
     #[test]

@@ -157,7 +157,7 @@ pub fn parse_model(text: &str, file: &str, model: usize) -> Result<Molecule, Mol
         }
         extra_models += read_rows(&tags, values, loop_line, file, model, &mut sites, &mut atoms)?;
     }
-    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models, sites })
+    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models, sites, cell: None, bonds: Vec::new() })
 }
 
 /// The atoms of an `_atom_site` table (`tags`, and `values` row after

@@ -132,11 +132,23 @@ pub fn parse_at(text: &str, file: &str, before: usize) -> Result<Molecule, Molec
     if lines.len() < count + 3 {
         return Err(err(lines.len(), "the file is cut short: the box line after the atoms is missing".into()));
     }
+    // The box: 3 numbers (rectangular) or 9 (triclinic), nm; anything
+    // else (or a box of zeros) is no box.
+    let numbers: Option<Vec<f64>> = lines[count + 2].split_whitespace().map(|t| t.parse().ok().filter(|v: &f64| v.is_finite())).collect();
+    let cell = numbers.and_then(|n| super::pbc::Cell::from_gro(&n));
     // Frames after the first (a trajectory written as GRO): as many
     // blocks of this size as the text after the box holds.
     let rest = lines[count + 3..].iter().rposition(|l| !l.trim().is_empty()).map_or(0, |last| last + 1);
     let extra_models = rest.div_ceil(count + 3);
-    Ok(Molecule { source: file.into(), atoms, skipped_sites: (skipped > 0).then_some((skipped, first_skipped)), extra_models, sites: count })
+    Ok(Molecule {
+        source: file.into(),
+        atoms,
+        skipped_sites: (skipped > 0).then_some((skipped, first_skipped)),
+        extra_models,
+        sites: count,
+        cell,
+        bonds: Vec::new(),
+    })
 }
 
 #[cfg(test)]

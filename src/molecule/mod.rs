@@ -19,6 +19,7 @@ pub mod cif;
 pub mod color;
 pub mod elements;
 pub mod gro;
+pub mod pbc;
 pub mod pdb;
 pub mod playback;
 pub mod psf;
@@ -116,6 +117,11 @@ pub struct Molecule {
     /// How many coordinate sites a frame of this structure holds (atoms
     /// kept, skipped and left out as alternate locations).
     pub sites: usize,
+    /// The periodic box, where the file gives one (GRO's last line).
+    pub cell: Option<pbc::Cell>,
+    /// Bonds between sites, where the topology lists them (PSF's
+    /// `!NBOND`); empty elsewhere (they are then guessed where needed).
+    pub bonds: Vec<[usize; 2]>,
 }
 
 /// A problem with a molecule file: one line, naming the file and, where

@@ -155,7 +155,7 @@ pub fn parse_at(text: &str, file: &str, skipped: usize) -> Result<Molecule, Mole
             ..Default::default()
         });
     }
-    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models: models.saturating_sub(1), sites })
+    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models: models.saturating_sub(1), sites, cell: None, bonds: Vec::new() })
 }
 
 #[cfg(test)]

@@ -64,14 +64,19 @@ impl Stager {
     /// A stager with the camera framed by `rule`.
     pub fn new(trajectory: Trajectory, options: MoleculeOptions, rule: FramingRule) -> Result<Stager> {
         options.check()?;
-        let picks = Picks::of(&trajectory.topology, &options);
-        let first = balls_of(&trajectory.topology, &options, Some(&picks))?;
-        let mut framing = Framing::of(&first);
         let mut t = trajectory;
+        let picks = Picks::of(&t.topology, &options);
+        if t.unwrap.as_ref().is_some_and(|u| u.center.is_some()) {
+            // `--pbc center`: on the atoms drawn.
+            let sites = super::build::kept_sites(&t.topology, &options, Some(&picks))?;
+            t.center_on(sites)?;
+        }
+        let first = balls_of(&t.topology, &options, Some(&picks))?;
+        let mut framing = Framing::of(&first);
         if rule == FramingRule::All {
             let (mut lo, mut hi, mut widest) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY), 0f64);
             for k in 0..t.len() {
-                let frame = t.frames.read(k)?;
+                let frame = t.read(k)?;
                 let m = t.molecule_at(&frame)?;
                 for b in balls_of(&m, &options, Some(&picks))? {
                     lo = lo.min(b.center);
@@ -111,10 +116,15 @@ impl Stager {
     /// of building it.
     pub fn text(&mut self, k: usize) -> Result<(String, Option<f64>, Notes)> {
         self.check_frame(k)?;
-        let frame = self.trajectory.frames.read(k)?;
+        let frame = self.trajectory.read(k)?;
         let m = self.trajectory.molecule_at(&frame)?;
         let time = frame.time_ps.map_or(String::new(), |t| format!(", t = {} ps", super::trajectory::ps(t)));
-        let note = format!("Frame {k} of {} ({} frames{time}), camera on {}.", self.trajectory.source, self.len(), describe(&self.framing));
+        let between = match self.trajectory.between(k) {
+            _ if self.trajectory.interpolate == 0 => String::new(),
+            (i, j, _) if i == j => format!(", saved frame {i} of {}", self.trajectory.saved_len()),
+            (i, j, t) => format!(", {t:.4} of the way from saved frame {i} to {j} of {}", self.trajectory.saved_len()),
+        };
+        let note = format!("Frame {k} of {} ({} frames{between}{time}), camera on {}.", self.trajectory.source, self.len(), describe(&self.framing));
         let stage = Stage { framing: Some(self.framing), note: &note, frame: k, picks: Some(&self.picks) };
         let (text, notes) = staged_text(&m, &self.options, stage)?;
         Ok((text, frame.time_ps, notes))
@@ -129,7 +139,7 @@ impl Stager {
         let (mut scene, time) = match &self.template {
             Some((template, sites)) => {
                 self.check_frame(k)?;
-                let frame = self.trajectory.frames.read(k)?;
+                let frame = self.trajectory.read(k)?;
                 self.trajectory.check(&frame)?;
                 let mut scene = template.clone();
                 for (p, &site) in scene.groups.iter_mut().flatten().zip(sites) {
@@ -193,6 +203,9 @@ pub struct Staged {
     pub scene: Scene,
     /// Wall time spent reading the frame and building its scene.
     pub decode: Duration,
+    /// The saved frames it lies between and how far from the first
+    /// ([`Trajectory::between`]; (k, k, 0) for saved frame k).
+    pub between: (usize, usize, f64),
 }
 
 struct Request {
@@ -291,8 +304,11 @@ fn decode_loop(mut stager: Stager, requests: &mpsc::Receiver<Request>, out: &mps
         };
         at += 1;
         let started = Instant::now();
-        let staged =
-            stager.scene(frame).map(|(scene, time_ps)| Staged { frame, time_ps, scene, decode: started.elapsed() }).map_err(|e| format!("{e:#}"));
+        let between = stager.trajectory.between(frame);
+        let staged = stager
+            .scene(frame)
+            .map(|(scene, time_ps)| Staged { frame, time_ps, scene, decode: started.elapsed(), between })
+            .map_err(|e| format!("{e:#}"));
         let failed = staged.is_err();
         if out.send((current.generation, staged)).is_err() {
             return;
@@ -324,7 +340,7 @@ mod tests {
         fn read(&mut self, index: usize) -> Result<Frame, crate::molecule::MoleculeError> {
             let d = index as f64 * 0.123_456_7;
             let positions = vec![DVec3::new(d, -0.0, 1.0), DVec3::new(1.0 + d, 2.0, -3.000_000_4), DVec3::new(2.5, d, 0.0)];
-            Ok(Frame { index, time_ps: Some(index as f64), positions })
+            Ok(Frame { index, time_ps: Some(index as f64), positions, cell: None })
         }
     }
 
@@ -336,12 +352,14 @@ mod tests {
             skipped_sites: None,
             extra_models: 0,
             sites: 3,
+            cell: None,
+            bonds: Vec::new(),
         };
         let first = Moving.read(0).unwrap();
         for a in &mut topology.atoms {
             a.position = first.positions[a.site];
         }
-        Trajectory { topology, source: "t.xtc".into(), frames: Box::new(Moving) }
+        Trajectory { topology, source: "t.xtc".into(), frames: Box::new(Moving), unwrap: None, interpolate: 0, saved: Vec::new() }
     }
 
     #[test]

@@ -92,7 +92,48 @@ pub fn parse(text: &str, file: &str) -> Result<Molecule, MoleculeError> {
             ..Default::default()
         });
     }
-    Ok(Molecule { source: file.into(), atoms, skipped_sites: (skipped > 0).then_some((skipped, first_skipped)), extra_models: 0, sites: count })
+    let bonds = bonds(&lines, count, file)?;
+    Ok(Molecule {
+        source: file.into(),
+        atoms,
+        skipped_sites: (skipped > 0).then_some((skipped, first_skipped)),
+        extra_models: 0,
+        sites: count,
+        cell: None,
+        bonds,
+    })
+}
+
+/// The `!NBOND` section's bonds, as pairs of sites (the atoms' ids less
+/// one: ids count the `!NATOM` lines from 1); none where the section is
+/// absent. Ids outside the atoms are an error naming the line.
+fn bonds(lines: &[&str], atoms: usize, file: &str) -> Result<Vec<[usize; 2]>, MoleculeError> {
+    let Some(start) = lines.iter().position(|l| l.contains("!NBOND")) else { return Ok(Vec::new()) };
+    let err = |line: usize, message: String| MoleculeError { file: file.into(), line: Some(line), message };
+    let count: usize = lines[start]
+        .split_whitespace()
+        .next()
+        .and_then(|t| t.parse().ok())
+        .ok_or_else(|| err(start + 1, format!("the bond count {:?} is not a whole number", lines[start].trim())))?;
+    let mut ids = Vec::with_capacity(2 * count.min(4 * lines.len()));
+    let mut n = start + 1;
+    while ids.len() < 2 * count {
+        let Some(line) = lines.get(n) else {
+            return Err(err(lines.len(), format!("the file is cut short: !NBOND says {count} bonds, it holds {}", ids.len() / 2)));
+        };
+        n += 1;
+        for t in line.split_whitespace() {
+            let id: usize = t.parse().map_err(|_| err(n, format!("the atom id {t:?} of a bond is not a whole number")))?;
+            if id == 0 || id > atoms {
+                return Err(err(n, format!("a bond to atom {id}, where !NATOM has {atoms}")));
+            }
+            ids.push(id - 1);
+        }
+        if line.trim().is_empty() {
+            return Err(err(n, format!("!NBOND says {count} bonds; the section ends after {}", ids.len() / 2)));
+        }
+    }
+    Ok(ids.chunks_exact(2).map(|p| [p[0], p[1]]).collect())
 }
 
 #[cfg(test)]
@@ -122,6 +163,11 @@ mod tests {
         assert_eq!((residue_number("52A"), residue_number("-3"), residue_number("X")), (52, -3, 0));
         assert_eq!(m.atoms.iter().map(|a| (a.element.as_str(), a.chain.as_str(), a.site)).collect::<Vec<_>>(), [("N", "4AKE", 0), ("H", "4AKE", 1)]);
         assert_eq!(m.skipped_sites, Some((1, 9)));
+        assert!(m.bonds.is_empty(), "no !NBOND section, no bonds");
+        let b = format!("{t}       2 !NBOND: bonds\n       1       2       2       3\n\n");
+        assert_eq!(parse(&b, "t.psf").unwrap().bonds, [[0, 1], [1, 2]]);
+        let bad = format!("{t}       2 !NBOND: bonds\n       1       2       2       4\n\n");
+        assert_eq!(parse(&bad, "t.psf").unwrap_err().to_string(), "t.psf:12: a bond to atom 4, where !NATOM has 3");
         let e = parse(&t[..t.len() - 60], "t.psf").unwrap_err();
         assert!(e.to_string().starts_with("t.psf:9: this atom line has"), "{e}");
     }

@@ -18,6 +18,7 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
+use super::pbc::{Cell, Molecules, Pbc, Unwrap};
 use super::{Format, Molecule, MoleculeError};
 
 /// One frame: the coordinates of every site (Å; NaN where the frame has
@@ -28,6 +29,8 @@ pub struct Frame {
     /// Picoseconds, where the file gives a time.
     pub time_ps: Option<f64>,
     pub positions: Vec<DVec3>,
+    /// The periodic box, where the file gives one for this frame.
+    pub cell: Option<Cell>,
 }
 
 /// A simulation time in picoseconds as messages print it: to six
@@ -89,6 +92,15 @@ pub struct Trajectory {
     /// The trajectory file (the topology's own when it has the frames).
     pub source: String,
     pub frames: Box<dyn Frames>,
+    /// Molecules made whole across the periodic box (`--pbc`), where
+    /// they are.
+    pub unwrap: Option<Unwrap>,
+    /// Frames made between each pair of saved ones (`--interpolate K`):
+    /// frame r is then (r mod (K+1)) / (K+1) of the way from saved frame
+    /// r / (K+1) to the next ([`Trajectory::between`]).
+    pub interpolate: usize,
+    /// The saved frames last read for interpolating, at most two.
+    pub(crate) saved: Vec<Frame>,
 }
 
 impl std::fmt::Debug for Trajectory {
@@ -113,6 +125,14 @@ pub fn read_topology(path: &Path) -> Result<Molecule, MoleculeError> {
 /// are set to frame 0's; a frame count of 0, or sites that do not match
 /// the topology's, are errors.
 pub fn open(topology: &Path, trajectory: Option<&Path>) -> Result<Trajectory, MoleculeError> {
+    open_with(topology, trajectory, Pbc::None).map(|(t, _)| t)
+}
+
+/// [`open`], with molecules made whole across the periodic box as `pbc`
+/// says ([`Pbc::Auto`]: where frame 0 has a box and a molecule split by
+/// it). Says what was done, where something was: the note printed on
+/// opening.
+pub fn open_with(topology: &Path, trajectory: Option<&Path>, pbc: Pbc) -> Result<(Trajectory, Option<String>), MoleculeError> {
     let mut top = read_topology(topology)?;
     let (path, own) = match trajectory {
         Some(t) => (t, false),
@@ -134,17 +154,177 @@ pub fn open(topology: &Path, trajectory: Option<&Path>) -> Result<Trajectory, Mo
             ));
         }
     };
-    let mut t = Trajectory { topology: top.clone(), source, frames };
+    let mut t = Trajectory { topology: top.clone(), source, frames, unwrap: None, interpolate: 0, saved: Vec::new() };
     let first = t.frames.read(0)?;
     top.atoms = t.atoms_at(&first)?;
     t.topology = top;
-    Ok(t)
+    let note = t.set_pbc(pbc, first)?;
+    Ok((t, note))
 }
 
 impl Trajectory {
-    /// The number of frames.
-    pub fn len(&self) -> usize {
+    /// Makes molecules whole from now on as `pbc` says, `first` being
+    /// frame 0 as read; sets the topology's positions to frame 0's as
+    /// drawn. The note to print, where molecules are made whole.
+    pub fn set_pbc(&mut self, pbc: Pbc, first: Frame) -> Result<Option<String>, MoleculeError> {
+        self.unwrap = None;
+        if pbc == Pbc::None {
+            return Ok(None);
+        }
+        let Some(cell) = first.cell else {
+            if pbc == Pbc::Auto {
+                return Ok(None);
+            }
+            return Err(fail(&self.source, Some(0), format!("--pbc {}: the file gives no periodic box", pbc.name())));
+        };
+        let started = std::time::Instant::now();
+        let molecules = Molecules::of_topology(&self.topology.atoms, &self.topology.bonds, Some(&cell));
+        let mut positions = first.positions.clone();
+        let split = molecules.make_whole(&mut positions, &cell);
+        if pbc == Pbc::Auto && !split {
+            return Ok(None);
+        }
+        let count = molecules.len();
+        let mut unwrap = Unwrap::new(molecules);
+        if pbc == Pbc::Center {
+            // On every atom until told the atoms drawn (the stager does).
+            unwrap.center = Some(self.topology.atoms.iter().map(|a| a.site).collect());
+        }
+        self.unwrap = Some(unwrap);
+        let first = self.read(0)?;
+        self.topology.atoms = self.atoms_at(&first)?;
+        let what = super::pbc::note(pbc, &cell, count, !self.topology.bonds.is_empty(), started.elapsed().as_secs_f64(), true);
+        Ok(Some(format!("{}: {what}", self.source)))
+    }
+
+    /// Moves frames so that the centre of `sites` is the box's
+    /// (`--pbc center`), after making them whole; sets the topology's
+    /// positions to frame 0's as drawn.
+    pub fn center_on(&mut self, sites: Vec<usize>) -> Result<(), MoleculeError> {
+        if let Some(u) = &mut self.unwrap {
+            u.center = Some(sites);
+            let first = self.read(0)?;
+            self.topology.atoms = self.atoms_at(&first)?;
+        }
+        Ok(())
+    }
+
+    /// Makes `k` frames between each pair of saved ones from now on
+    /// (`--interpolate K`; 0: the saved frames only).
+    pub fn set_interpolate(&mut self, k: usize) {
+        self.interpolate = k;
+        self.saved.clear();
+    }
+
+    /// The saved frames that frame `r` lies between and how far it is
+    /// from the first to the second: (i, i, 0) for saved frame i itself.
+    pub fn between(&self, r: usize) -> (usize, usize, f64) {
+        let step = self.interpolate + 1;
+        let (i, j) = (r / step, r % step);
+        if j == 0 { (i, i, 0.0) } else { (i, i + 1, j as f64 / step as f64) }
+    }
+
+    /// The number of saved frames (the file's).
+    pub fn saved_len(&self) -> usize {
         self.frames.len()
+    }
+
+    /// Frame `r`: saved frame r, or with `--interpolate`, the saved frame
+    /// or the positions between two ([`Trajectory::between`]) linearly
+    /// interpolated, each atom moving the short way across the periodic
+    /// box where the frames have one (by the minimum image of its
+    /// displacement: an atom that leaves through one face and comes in
+    /// through the other does not fly across the picture), after the
+    /// molecules are made whole where they are; the time likewise.
+    pub fn read(&mut self, r: usize) -> Result<Frame, MoleculeError> {
+        if self.interpolate == 0 {
+            return self.read_saved(r);
+        }
+        let (i, j, t) = self.between(r);
+        let a = self.saved_frame(i)?;
+        if j == i {
+            return Ok(Frame { index: r, ..a });
+        }
+        let b = self.saved_frame(j)?;
+        let positions = a
+            .positions
+            .iter()
+            .zip(&b.positions)
+            .map(|(&p, &q)| {
+                let d = q - p;
+                p + t * a.cell.map_or(d, |c| c.minimum_image(d))
+            })
+            .collect();
+        let time_ps = a.time_ps.zip(b.time_ps).map(|(x, y)| x + t * (y - x));
+        Ok(Frame { index: r, time_ps, positions, cell: a.cell })
+    }
+
+    /// Saved frame `i`, from the two kept where it is one of them.
+    fn saved_frame(&mut self, i: usize) -> Result<Frame, MoleculeError> {
+        if let Some(f) = self.saved.iter().find(|f| f.index == i) {
+            return Ok(f.clone());
+        }
+        let f = self.read_saved(i)?;
+        self.saved.push(f.clone());
+        if self.saved.len() > 2 {
+            self.saved.remove(0);
+        }
+        Ok(f)
+    }
+
+    /// Reads saved frame `k`, its molecules made whole where they are
+    /// ([`Trajectory::unwrap`]): frames before it are read first where
+    /// their molecules' centres are not known (at most 31 after a seek,
+    /// once frame k-1's region has been read).
+    pub fn read_saved(&mut self, k: usize) -> Result<Frame, MoleculeError> {
+        let mut frame = self.frames.read(k)?;
+        if self.unwrap.is_none() {
+            return Ok(frame);
+        }
+        let before = if k == 0 {
+            None
+        } else {
+            let known = self.unwrap.as_ref().and_then(|u| u.known_before(k - 1));
+            let from = match known {
+                Some(j) => j + 1,
+                None => 0,
+            };
+            for j in from..k {
+                let mut f = self.frames.read(j)?;
+                self.whole(&mut f)?;
+            }
+            self.unwrap.as_ref().and_then(|u| u.centres_of(k - 1)).map(<[DVec3]>::to_vec)
+        };
+        self.whole_after(&mut frame, before.as_deref())?;
+        Ok(frame)
+    }
+
+    /// Makes `frame` whole after the frame before it, whose centres are
+    /// known.
+    fn whole(&mut self, frame: &mut Frame) -> Result<(), MoleculeError> {
+        let before = if frame.index == 0 { None } else { self.unwrap.as_ref().and_then(|u| u.centres_of(frame.index - 1)).map(<[DVec3]>::to_vec) };
+        self.whole_after(frame, before.as_deref())
+    }
+
+    fn whole_after(&mut self, frame: &mut Frame, before: Option<&[DVec3]>) -> Result<(), MoleculeError> {
+        self.check(frame)?;
+        let Some(cell) = frame.cell else {
+            return Err(fail(
+                &self.source,
+                Some(frame.index),
+                "no periodic box in this frame, where frame 0 has one (--pbc none keeps the file's coordinates)",
+            ));
+        };
+        let u = self.unwrap.as_mut().expect("unwrapping");
+        u.apply(frame.index, &mut frame.positions, &cell, before);
+        Ok(())
+    }
+
+    /// The number of frames: the saved ones, and with `--interpolate K`,
+    /// K more between each pair.
+    pub fn len(&self) -> usize {
+        let n = self.frames.len();
+        if n == 0 { 0 } else { (n - 1) * (self.interpolate + 1) + 1 }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -380,7 +560,7 @@ impl Frames for TextFrames {
         for a in &m.atoms {
             positions[a.site] = a.position;
         }
-        Ok(Frame { index, time_ps, positions })
+        Ok(Frame { index, time_ps, positions, cell: m.cell })
     }
 }
 
@@ -504,7 +684,10 @@ pub mod xtc {
             }
             // nm to Å, each f32 coordinate widened first.
             let positions = frame.coords().map(|p| DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) * 10.0).collect();
-            Ok(Frame { index, time_ps: Some(f64::from(frame.time)), positions })
+            // The box: three vectors of three f32 each, nm.
+            let v =
+                |i: usize| DVec3::new(f64::from(frame.boxvec[3 * i]), f64::from(frame.boxvec[3 * i + 1]), f64::from(frame.boxvec[3 * i + 2])) * 10.0;
+            Ok(Frame { index, time_ps: Some(f64::from(frame.time)), positions, cell: Cell::new(v(0), v(1), v(2)) })
         }
     }
 }
@@ -628,6 +811,23 @@ pub mod dcd {
             let mut buf = vec![0u8; self.frame_bytes as usize];
             self.f.seek(SeekFrom::Start(self.first + index as u64 * self.frame_bytes)).map_err(|e| err(format!("cannot read: {e}")))?;
             self.f.read_exact(&mut buf).map_err(|_| err("the file is cut short inside this frame".into()))?;
+            // The unit cell: a record of six f64.
+            let cell = if self.cell {
+                let length = int(&buf[0..4], self.big);
+                if length != 48 || int(&buf[52..56], self.big) != 48 {
+                    return Err(err(format!("corrupt: its unit cell record is framed by {length} bytes, not 48")));
+                }
+                let values: Vec<f64> = buf[4..52]
+                    .chunks_exact(8)
+                    .map(|c| {
+                        let a: [u8; 8] = c.try_into().expect("8 bytes");
+                        if self.big { f64::from_be_bytes(a) } else { f64::from_le_bytes(a) }
+                    })
+                    .collect();
+                Cell::from_dcd([values[0], values[1], values[2], values[3], values[4], values[5]])
+            } else {
+                None
+            };
             let mut at = if self.cell { 56 } else { 0 };
             let n = self.atoms;
             let mut axes = [vec![0f32; 0], vec![], vec![]];
@@ -650,7 +850,7 @@ pub mod dcd {
             if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
                 return Err(err(format!("corrupt: atom {} has coordinates that are not numbers", i + 1)));
             }
-            Ok(Frame { index, time_ps: Some(self.start_ps + index as f64 * self.step_ps), positions })
+            Ok(Frame { index, time_ps: Some(self.start_ps + index as f64 * self.step_ps), positions, cell })
         }
     }
 }
@@ -675,6 +875,80 @@ mod tests {
     fn gromacs_titles_give_times() {
         assert_eq!(gro_time("Generated by trjconv : t=  100.00000 step= 50000"), Some(100.0));
         assert_eq!(gro_time("Protein in water"), None);
+    }
+
+    /// Two atoms in a 10 Å cube: atom 0 still, atom 1 stepping +3 Å in x
+    /// a frame from x = 8, wrapped into the box by the file (8, 1, 4, 7).
+    struct Crossing;
+
+    impl Frames for Crossing {
+        fn len(&self) -> usize {
+            4
+        }
+        fn read(&mut self, index: usize) -> Result<Frame, MoleculeError> {
+            let x = (8.0 + 3.0 * index as f64).rem_euclid(10.0);
+            let cell = Cell::from_gro(&[1.0, 1.0, 1.0]);
+            Ok(Frame { index, time_ps: Some(2.0 * index as f64), positions: vec![DVec3::new(5.0, 5.0, 5.0), DVec3::new(x, 5.0, 5.0)], cell })
+        }
+    }
+
+    fn crossing() -> Trajectory {
+        let atom = |site: usize| super::super::Atom { element: "O".into(), resid: site as i64 + 1, site, line: site + 1, ..Default::default() };
+        let topology = Molecule {
+            source: "t.gro".into(),
+            atoms: vec![atom(0), atom(1)],
+            skipped_sites: None,
+            extra_models: 0,
+            sites: 2,
+            cell: None,
+            bonds: Vec::new(),
+        };
+        Trajectory { topology, source: "t.xtc".into(), frames: Box::new(Crossing), unwrap: None, interpolate: 0, saved: Vec::new() }
+    }
+
+    #[test]
+    fn interpolated_frames_lie_between_saved_ones_and_cross_the_box_the_short_way() {
+        let mut t = crossing();
+        assert_eq!(t.len(), 4);
+        t.set_interpolate(3);
+        assert_eq!(t.len(), 3 * 4 + 1);
+        assert_eq!((t.between(0), t.between(4), t.between(6), t.between(12)), ((0, 0, 0.0), (1, 1, 0.0), (1, 2, 0.5), (3, 3, 0.0)));
+        assert_eq!(t.between(5), (1, 2, 0.25));
+        // Saved frames are the file's.
+        for i in 0..4 {
+            let mut saved = t.frames.read(i).unwrap();
+            saved.index = 4 * i;
+            assert_eq!(t.read(4 * i).unwrap(), saved);
+        }
+        // Between: atom 1 goes from 8 to 11 (entering at 1), never back
+        // across the box; the time and atom 0 likewise.
+        for r in 1..4 {
+            let f = t.read(r).unwrap();
+            let x = 8.0 + 3.0 * r as f64 / 4.0;
+            assert!((f.positions[1].x - x).abs() < 1e-12, "frame {r}: {} where {x}", f.positions[1].x);
+            assert_eq!(f.positions[0], DVec3::new(5.0, 5.0, 5.0));
+            assert_eq!(f.time_ps, Some(0.5 * r as f64));
+        }
+        // The midpoint of saved frames 2 and 3 (4 to 7).
+        assert_eq!(t.read(10).unwrap().positions[1], DVec3::new(5.5, 5.0, 5.0));
+        // Read backwards too.
+        assert_eq!(t.read(2).unwrap().positions[1].x, 9.5);
+        // Without a box, straight from one to the other.
+        let mut plain = crossing();
+        plain.frames = Box::new(NoBox(Crossing));
+        plain.set_interpolate(1);
+        assert_eq!(plain.read(1).unwrap().positions[1].x, 4.5, "8 to 1 through the middle");
+    }
+
+    struct NoBox(Crossing);
+
+    impl Frames for NoBox {
+        fn len(&self) -> usize {
+            self.0.len()
+        }
+        fn read(&mut self, index: usize) -> Result<Frame, MoleculeError> {
+            Ok(Frame { cell: None, ..self.0.read(index)? })
+        }
     }
 
     #[test]
