@@ -478,6 +478,8 @@ def test_a_gro_split_by_its_box_is_made_whole_with_a_note(renderer):
     assert any("split by the periodic box" in w for w in whole.warnings), whole.warnings
     none = isomarch.Trajectory(gro, xtc, pbc="none")
     assert not any("periodic box" in w for w in none.warnings)
+    single = isomarch.Scene.from_molecule(gro)
+    assert any("split by the periodic box" in w for w in single.warnings), single.warnings
     # Framed on the molecule: whole, it fills more of the picture.
     covered = [(renderer.render(t[0], (32, 32)).rgba != renderer.render(t[0], (32, 32)).rgba[0, 0]).any(axis=-1).sum() for t in (whole, none)]
     assert covered[0] > covered[1], covered

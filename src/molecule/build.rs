@@ -732,9 +732,15 @@ pub fn atoms_scene(centers: &[DVec3], radii: &[f64], colors: Option<&[[f64; 3]]>
     Ok(Scene::parse(&balls_text(&made_by, &balls, o), "atoms")?)
 }
 
-/// The scene of the molecule file at `path` (see [`scene_text`]).
+/// The scene of the molecule file at `path` (see [`scene_text`]), its
+/// molecules made whole where its box splits one, as the command line's
+/// default `--pbc auto` does (the note among the warnings).
 pub fn load_scene(path: &std::path::Path, o: &MoleculeOptions) -> Result<(Scene, Notes)> {
-    scene_of(&super::read(path)?, o)
+    let mut m = super::read(path)?;
+    let note = super::pbc::make_molecule_whole(&mut m, super::pbc::Pbc::Auto, None)?;
+    let (scene, mut notes) = scene_of(&m, o)?;
+    notes.warnings.extend(note);
+    Ok((scene, notes))
 }
 
 /// The scene of a molecule read (see [`scene_text`]).
