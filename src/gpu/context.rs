@@ -58,6 +58,14 @@ pub struct DeviceInfo {
     pub memory_heaps_mib: Vec<u64>,
 }
 
+impl DeviceInfo {
+    /// Whether the device is a CPU's driver (lavapipe): its "GPU" is the
+    /// host's own cores, its workgroups run a few at a time.
+    pub fn is_cpu(&self) -> bool {
+        self.kind == format!("{:?}", vk::PhysicalDeviceType::CPU)
+    }
+}
+
 /// The Vulkan device and everything with its lifetime.
 ///
 /// If a fence deadline passes, the GPU may still be using any object, and

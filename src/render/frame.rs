@@ -181,7 +181,7 @@ fn look_of(scene: &Scene, (width, height): (u32, u32), samples: u32, effects: &E
 
 /// Two f64 as the shader reads them (`packDouble2x32`): each as its low
 /// word, then its high.
-fn bits(a: f64, b: f64) -> [u32; 4] {
+pub(super) fn bits(a: f64, b: f64) -> [u32; 4] {
     let (a, b) = (a.to_bits(), b.to_bits());
     [a as u32, (a >> 32) as u32, b as u32, (b >> 32) as u32]
 }

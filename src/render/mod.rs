@@ -1087,8 +1087,9 @@ impl Renderer {
     }
 
     /// Whether the camera's lists of a `width` x `height` frame are built
-    /// on the GPU ([`tile_build`]): where the device can, unless
-    /// `ISOMARCH_TILE_BUILD=host`; frames of at most 65,535 tiles (a
+    /// on the GPU ([`tile_build`]): where the device can and is not a
+    /// CPU's driver, unless [`Renderer::set_tile_builder`] or
+    /// `ISOMARCH_TILE_BUILD=on|off` says otherwise; frames of at most 65,535 tiles (a
     /// primitive's loop over its tiles stays below lavapipe's cap).
     pub fn gpu_tiles_apply(&self, width: u32, height: u32) -> bool {
         let tiles = u64::from(width.div_ceil(rays::PIXEL_TILE)) * u64::from(height.div_ceil(rays::PIXEL_TILE));
@@ -1097,7 +1098,7 @@ impl Renderer {
         // "Tile lists built on the GPU"): there the host builds them, unless
         // asked otherwise.
         let asked = std::env::var_os(TILE_BUILD_SWITCH).map(|_| env_switch(TILE_BUILD_SWITCH).unwrap_or(true));
-        let wanted = self.tile_builder.or(asked).unwrap_or(!self.ctx.info.kind.contains("CPU"));
+        let wanted = self.tile_builder.or(asked).unwrap_or(!self.ctx.info.is_cpu());
         tile_build::supported(&self.ctx) && tiles <= 65_535 && wanted
     }
 
@@ -1212,10 +1213,7 @@ impl Renderer {
         let starts: Vec<u32> = self.transfers.take(starts)?;
         let mut entries: Vec<[u32; 2]> = self.transfers.take(entries)?;
         entries.truncate(total);
-        let counts: Vec<usize> = starts.windows(2).map(|w| (w[1] - w[0]) as usize).collect();
-        let longest = counts.iter().copied().max().unwrap_or(0);
-        let crowd = counts.chunks(groups as usize).map(|c| c.iter().sum()).max().unwrap_or(0);
-        Ok(Some(tiles::TileLists { width, height, tiles_x, tiles_y, groups, starts, entries, longest, crowd }))
+        Ok(Some(tiles::TileLists::from_parts(width, height, groups, starts, entries)))
     }
 
     /// The primitives as the GPU holds them (centre and clip radius in

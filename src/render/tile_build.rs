@@ -1,5 +1,6 @@
-//! The camera's tile lists ([`super::tiles`]) built on the GPU, in one
-//! submission of tiles.comp's passes, as 3D Gaussian splatting builds its
+//! The camera's tile lists ([`super::tiles`]) built on the GPU by
+//! tiles.comp's passes, in two submissions (one where the last frame's
+//! entries fit with room to spare), as 3D Gaussian splatting builds its
 //! tile lists: each primitive's pixels and depth, the primitives sorted by
 //! depth, one entry per (tile, primitive) made in that order, the entries
 //! sorted by list with a stable radix sort (so each list stays in depth
@@ -45,7 +46,7 @@ use crate::scene::Camera;
 /// (whose workgroups run one after another) and more, smaller ones where
 /// many workgroups run at once.
 fn chunk_keys(ctx: &Context) -> u32 {
-    if ctx.info.kind.contains("CPU") { 2048 } else { 512 }
+    if ctx.info.is_cpu() { 2048 } else { 512 }
 }
 
 /// Set, each pass of a build is submitted and timed alone, and its time
@@ -152,8 +153,7 @@ impl TileBuild {
 
     /// Builds the lists of the `prims` uploaded (`primitives` of them,
     /// `groups` groups) for `camera`'s `width` x `height` frame into
-    /// `starts` and `entries` (sized for [`TileBuild::capacity`]), in one
-    /// submission. Returns what was made (`entries` beyond the capacity:
+    /// `starts` and `entries` (sized for [`TileBuild::capacity`]). Returns what was made (`entries` beyond the capacity:
     /// the lists are incomplete, to be made again in larger buffers) and
     /// the GPU's nanoseconds.
     #[allow(clippy::too_many_arguments)]
@@ -171,10 +171,7 @@ impl TileBuild {
         let tiles_x = width.div_ceil(super::rays::PIXEL_TILE);
         let tiles_y = height.div_ceil(super::rays::PIXEL_TILE);
         let lists = tiles_x * tiles_y * groups;
-        let bits = |a: f64, b: f64| {
-            let (a, b) = (a.to_bits(), b.to_bits());
-            [a as u32, (a >> 32) as u32, b as u32, (b >> 32) as u32]
-        };
+        let bits = super::frame::bits;
         let params = GpuTileBuild {
             eye64: bits(view.eye.x, view.eye.y),
             eye64_z: bits(view.eye.z, view.half_w),
@@ -198,19 +195,23 @@ impl TileBuild {
         let push = |count: u32, shift: u32, bits: u32, src: u32, dst: u32, scan_n: u32| [count, shift, bits, src, dst, self.chunk, scan_n, 0];
         let groups_of = |items: u64, per: u64| u32::try_from(items.div_ceil(per)).unwrap_or(u32::MAX);
         let sg_per_wg = u64::from(64 / self.subgroup_size);
+        // An exclusive prefix sum of `values` words of `scan` (0: a radix
+        // pass's histograms, as many as its push constants say).
+        let prefix_sum = |passes: &mut Vec<(u32, u32, [u32; 8])>, values: u64, p: [u32; 8]| {
+            let blocks = groups_of(values, u64::from(layout::TILE_SCAN_BLOCK)) * 64;
+            passes.push((layout::TILE_PASS_SCAN_REDUCE, blocks, p));
+            passes.push((layout::TILE_PASS_SCAN_TOP, 64, p));
+            passes.push((layout::TILE_PASS_SCAN_DOWN, blocks, p));
+        };
         // A radix pass over `items` keys (or the entries', at most the
         // capacity): histogram, prefix sum, scatter.
         let radix = |passes: &mut Vec<(u32, u32, [u32; 8])>, count: u32, items: u64, (shift, width): (u32, u32), src: u32, dst: u32, last: bool| {
             let chunks = items.div_ceil(u64::from(self.chunk));
             let wgs = groups_of(chunks, sg_per_wg) * 64;
-            let values = chunks << width;
-            let blocks = groups_of(values, u64::from(layout::TILE_SCAN_BLOCK)) * 64;
             let mut p = push(count, shift, width, src, dst, 0);
             p[7] = u32::from(last);
             passes.push((layout::TILE_PASS_HISTOGRAM, wgs, p));
-            passes.push((layout::TILE_PASS_SCAN_REDUCE, blocks, p));
-            passes.push((layout::TILE_PASS_SCAN_TOP, 64, p));
-            passes.push((layout::TILE_PASS_SCAN_DOWN, blocks, p));
+            prefix_sum(passes, chunks << width, p);
             passes.push((layout::TILE_PASS_SCATTER, wgs, p));
         };
         passes.push((layout::TILE_PASS_PROJECT, primitives.max(layout::TILE_STAT_WORDS), push(primitives, 0, 0, 0, 0, 0)));
@@ -225,12 +226,9 @@ impl TileBuild {
         let sorted = at;
         // Each primitive's entries' place, in depth order, and the total.
         let scan_n = primitives + 1;
-        let blocks = groups_of(u64::from(scan_n), u64::from(layout::TILE_SCAN_BLOCK)) * 64;
         let p = push(primitives, 0, 1, sorted, 0, scan_n);
         passes.push((layout::TILE_PASS_COUNT, scan_n, p));
-        passes.push((layout::TILE_PASS_SCAN_REDUCE, blocks, p));
-        passes.push((layout::TILE_PASS_SCAN_TOP, 64, p));
-        passes.push((layout::TILE_PASS_SCAN_DOWN, blocks, p));
+        prefix_sum(&mut passes, u64::from(scan_n), p);
         passes.push((layout::TILE_PASS_TOTAL, 1, p));
         // The entries, into the half the primitives are not in, sorted by
         // list, the last pass writing them into the lists; a second
@@ -256,14 +254,12 @@ impl TileBuild {
                 // SAFETY: the pipelines and their sets are alive and bound
                 // to buffers sized for these counts.
                 unsafe {
-                    {
-                        crate::gpu::memory_barrier(
-                            d,
-                            cmd,
-                            (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
-                            (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE),
-                        );
-                    }
+                    crate::gpu::memory_barrier(
+                        d,
+                        cmd,
+                        (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
+                        (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE),
+                    );
                     crate::gpu::bind_compute(d, cmd, handles[*pass as usize], push);
                     // Rows of workgroups where one row would pass the
                     // device's limit (tiles.comp: linear_group).

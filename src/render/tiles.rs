@@ -206,9 +206,19 @@ impl TileLists {
                 fill[list] += 1;
             }
         }
-        let longest = counts.iter().copied().max().unwrap_or(0) as usize;
-        let crowd = counts.chunks(groups.max(1) as usize).map(|c| c.iter().map(|&n| n as usize).sum::<usize>()).max().unwrap_or(0);
-        TileLists { width, height, tiles_x, tiles_y, groups: groups.max(1), starts, entries, longest, crowd }
+        TileLists::from_parts(width, height, groups, starts, entries)
+    }
+
+    /// Lists of a `width` x `height` frame of `groups` groups from their
+    /// starts (one per list and the total) and entries; the longest list
+    /// and the crowd counted from the starts.
+    pub fn from_parts(width: u32, height: u32, groups: u32, starts: Vec<u32>, entries: Vec<[u32; 2]>) -> TileLists {
+        let groups = groups.max(1);
+        let counts: Vec<usize> = starts.windows(2).map(|w| (w[1] - w[0]) as usize).collect();
+        let longest = counts.iter().copied().max().unwrap_or(0);
+        let crowd = counts.chunks(groups as usize).map(|c| c.iter().sum()).max().unwrap_or(0);
+        let (tiles_x, tiles_y) = (width.div_ceil(PIXEL_TILE), height.div_ceil(PIXEL_TILE));
+        TileLists { width, height, tiles_x, tiles_y, groups, starts, entries, longest, crowd }
     }
 
     /// Group `g`'s list of tile `tile` (row-major).
@@ -327,7 +337,7 @@ impl TileLists {
                 starts.push(entries.len() as u32);
             }
         }
-        TileLists { starts, entries, ..self.clone() }
+        TileLists::from_parts(self.width, self.height, self.groups, starts, entries)
     }
 }
 
