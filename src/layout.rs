@@ -712,6 +712,18 @@ pub const TILES_BINDINGS: &[Binding] = &[
     Binding { doc: &["TILE_STAT_* words."], ..buffer(9, Access::ReadWrite, "TileStatBuffer", "uint tile_stats[]") },
 ];
 
+/// present.comp's bindings (src/gpu/present.rs): the frame's pixels and
+/// the window's, one RGBA8 word each. present.comp declares them itself,
+/// as [`glsl_present_bindings`] writes them (a unit test checks), so that
+/// it includes nothing and no other kernel's cache key changes with it.
+pub const PRESENT_BINDINGS: &[Binding] =
+    &[buffer(0, Access::ReadOnly, "FrameBuffer", "uint frame_pixels[]"), buffer(1, Access::WriteOnly, "WindowBuffer", "uint window_pixels[]")];
+
+/// The GLSL declarations of [`PRESENT_BINDINGS`].
+pub fn glsl_present_bindings() -> String {
+    glsl_bindings_of(PRESENT_BINDINGS)
+}
+
 /// look.comp's passes (its push constant `pass`).
 pub const LOOK_PASS_CAMERA: u32 = 0;
 pub const LOOK_PASS_SAMPLE: u32 = 1;
@@ -858,6 +870,13 @@ mod tests {
             assert!(size > 0 && size % 16 == 0, "{name} is {size} bytes");
         }
         assert!(super::glsl().contains("struct GpuRay {\n    vec4 o;\n    vec4 d;\n};"));
+    }
+
+    #[test]
+    fn present_comp_declares_the_present_bindings() {
+        let source = include_str!("../shaders/present.comp");
+        let wanted = super::glsl_present_bindings();
+        assert!(source.contains(&wanted), "shaders/present.comp must declare, as they are written here:\n{wanted}");
     }
 
     #[test]

@@ -9,6 +9,7 @@ use std::path::Path;
 use crate::common::*;
 use isomarch::layout::FLAG_HIT;
 use isomarch::output::{Frame, MarchStats};
+use isomarch::render::frame::Readback;
 use isomarch::render::offscreen::{Effects, SAMPLE_SEED};
 use isomarch::render::rays::{camera_rays_through, subpixel};
 use isomarch::render::{MarchOptions, Renderer};
@@ -74,7 +75,7 @@ fn the_gpu_reduces_what_the_host_would() {
         let (w, h) = (72, 56);
         assert!(renderer.gpu_frame_applies(&options, &scene, (w, h)), "{path}: the GPU frame should apply");
         renderer.prepare_camera(method, &options, &scene.camera, w, h).unwrap();
-        let made = renderer.gpu_frame_keeping(method, options, &scene, (w, h), 1, &Effects::default(), true).unwrap();
+        let made = renderer.gpu_frame_reading(method, options, &scene, (w, h), 1, &Effects::default(), Readback::ImageAndRays).unwrap();
         let (rays, results) = made.last.unwrap();
         let (_, pixels) = camera_rays_through(&scene.camera, w, h, &scene.bounds, |_| (0.5, 0.5));
         let kept: Vec<_> = results.iter().zip(&pixels).filter(|(_, p)| p.is_some()).map(|(r, _)| r).collect();
@@ -166,4 +167,36 @@ fn render_makes_the_hosts_image_on_the_gpu() {
             assert!((a / b - 1.0).abs() < 1e-3, "{what}: occlusion steps per ray {a} against {b}");
         }
     }
+}
+
+/// What a window shows of an image on the GPU (present.comp, through
+/// `gpu::scale`): each window pixel the image's pixel under its top-left
+/// corner (`scale::nearest`, the canvas's scaling, so a screenshot read
+/// back equals the window), R and B swapped for a BGRA swapchain, alpha
+/// 255, up, down, by odd ratios and 1:1.
+#[test]
+fn a_window_shows_the_gpus_image_scaled_by_nearest_neighbour() {
+    use isomarch::gpu::scale::{nearest, scale_image};
+    let ctx = gpu();
+    // Every pixel different, alpha not 255: a pixel taken from the wrong
+    // place, a swizzle or the alpha shows.
+    let from = (13u32, 7u32);
+    let image: Vec<u32> = (0..from.0 * from.1).map(|i| (i * 2_654_435_761u32) & 0x7fff_ffff).collect();
+    for to in [(13, 7), (40, 21), (97, 64), (5, 3), (1, 1), (13, 30)] {
+        for bgra in [false, true] {
+            let shown = scale_image(&ctx, &image, from, to, bgra).unwrap();
+            for y in 0..to.1 {
+                for x in 0..to.0 {
+                    let c = image[(nearest(y, from.1, to.1) * from.0 + nearest(x, from.0, to.0)) as usize];
+                    let c = if bgra { (c & 0x0000_ff00) | ((c & 0xff) << 16) | ((c >> 16) & 0xff) } else { c & 0x00ff_ffff };
+                    let got = shown[(y * to.0 + x) as usize];
+                    assert_eq!(got, c | 0xff00_0000, "{from:?} to {to:?} (bgra {bgra}): pixel {x},{y} is {got:#010x}, not {:#010x}", c | 0xff00_0000);
+                }
+            }
+        }
+    }
+    // 1:1 is the image itself, opaque.
+    let same = scale_image(&ctx, &image, from, from, false).unwrap();
+    assert!(same.iter().zip(&image).all(|(s, i)| *s == (i | 0xff00_0000)));
+    assert_no_validation(&ctx);
 }

@@ -371,6 +371,14 @@ impl Session {
     }
 }
 
+/// The viewer's summary says that the last frame it presented took the
+/// GPU's image (look.comp's frame, scaled by present.comp), not pixels
+/// uploaded from the host.
+fn assert_shown_from_the_gpu(out: &Output) {
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("the last from the GPU)"), "the last frame shown was not the GPU's image: {stdout}");
+}
+
 /// `isomarch render` of `scene` offscreen.
 fn render(scene: &Path, out: &Path, args: &[&str]) -> image::RgbImage {
     isomarch(["render"]).arg(scene).arg("-o").arg(out).args(args).args(["--validation", "--timeout", "300"]).current_dir(repo_root()).ok();
@@ -390,16 +398,17 @@ fn the_window_shows_the_offscreen_frame() {
     let dir = scratch("viewer-presented");
     let s = Session::open(&["scenes/fig10.ron", "--size", "96x96", "--paused"]);
     let (title, shown) = s.settled();
-    s.close();
+    assert_shown_from_the_gpu(&s.close());
     let offscreen = render(Path::new("scenes/fig10.ron"), &dir.join("fig10.png"), &["--size", "96x96"]);
     shown.save(dir.join("fig10-window.png")).unwrap();
     eprintln!("title: {title}");
     assert!(colours(&dir.join("fig10.png"), (96, 96)) > 50, "the offscreen frame is nearly uniform");
     assert_eq!(shown.dimensions(), (96, 96), "the window's size");
-    // No tolerance: the frame is copied byte for byte into the swapchain
-    // image (a transfer, no format conversion, sRGB-encoded either way) and
-    // Xvfb's 24-bit TrueColor visual keeps 8 bits a channel; lavapipe is
-    // deterministic. Measured: 0. A swapped swizzle differs by 75.
+    // No tolerance: the frame made on the GPU is swizzled by present.comp
+    // and copied byte for byte into the swapchain image (a transfer, no
+    // format conversion, sRGB-encoded either way) and Xvfb's 24-bit
+    // TrueColor visual keeps 8 bits a channel; lavapipe is deterministic.
+    // Measured: 0. A swapped swizzle differs by 75.
     let d = max_channel_diff(&shown, &offscreen);
     assert!(d == 0, "the window differs from the offscreen frame by up to {d} per channel (saved {})", dir.display());
 }
@@ -609,7 +618,7 @@ fn a_lit_viewer_frame_is_the_lit_render() {
     let lit = ["--size", "64x64", "--shadows", "--ao", "8"];
     let s = Session::open(&[&["scenes/fig10.ron", "--paused"][..], &lit[..]].concat());
     let (_, shown) = s.settled();
-    s.close();
+    assert_shown_from_the_gpu(&s.close());
     let offscreen = render(Path::new("scenes/fig10.ron"), &dir.join("lit.png"), &lit);
     let plain = render(Path::new("scenes/fig10.ron"), &dir.join("plain.png"), &["--size", "64x64"]);
     shown.save(dir.join("lit-window.png")).unwrap();

@@ -7,7 +7,7 @@
 //! the first time a process asks for it, or reads the SPIR-V that an
 //! earlier run left in the cache ([`cache_dir`]). So a picture pays for the
 //! one or two kernels it uses, and only once per machine: spirv-opt spends
-//! about a minute on a marching kernel on 2 cores, and there are nine (most of them marching).
+//! about a minute on a marching kernel on 2 cores, and there are eleven (five of them marching).
 //!
 //! `ISOMARCH_SHADER_OPT=zero` compiles without optimisation (under a second
 //! a kernel, but lavapipe then spends a minute or more making each
@@ -56,11 +56,13 @@ pub enum Kernel {
     Look,
     /// The camera's tile lists built on the GPU (tiles.comp).
     Tiles,
+    /// A frame scaled and swizzled into the window's pixels (present.comp).
+    Present,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 10] = [
+    pub const ALL: [Kernel; 11] = [
         Kernel::March,
         Kernel::MarchIndexed,
         Kernel::MarchBracket,
@@ -71,6 +73,7 @@ impl Kernel {
         Kernel::Index,
         Kernel::Look,
         Kernel::Tiles,
+        Kernel::Present,
     ];
 
     /// The kernel's name: its source file's stem and its variant's suffix
@@ -87,6 +90,7 @@ impl Kernel {
             Kernel::Index => "index",
             Kernel::Look => "look",
             Kernel::Tiles => "tiles",
+            Kernel::Present => "present",
         }
     }
 

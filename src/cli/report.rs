@@ -81,10 +81,12 @@ pub fn render(job: &RenderJob, s: &RenderStats) {
 #[cfg(feature = "window")]
 pub fn view(s: &ViewSummary) {
     println!(
-        "presented {} ({} at full resolution, {} made whole on the GPU) in {:.1} s; last: {}, {:.2} steps/ray",
+        "presented {} ({} at full resolution, {} made whole on the GPU, {} shown from the GPU's image, the last {}) in {:.1} s; last: {}, {:.2} steps/ray",
         count(s.presented, "frame"),
         s.full_frames,
         s.gpu_frames,
+        s.gpu_presents,
+        if s.last_from_gpu { "from the GPU" } else { "uploaded" },
         s.seconds,
         s.method,
         s.steps_per_ray

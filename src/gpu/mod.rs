@@ -6,6 +6,7 @@ mod context;
 mod pipeline;
 #[cfg(feature = "window")]
 mod present;
+pub mod scale;
 mod submit;
 mod transfer;
 

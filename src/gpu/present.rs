@@ -1,11 +1,17 @@
-//! Presenting host pixels to a window: surface, swapchain, and one copy
-//! from a host-visible buffer into the acquired image per frame.
+//! Presenting frames to a window: surface, swapchain, and per frame one
+//! compute pass and one copy on the GPU.
 //!
-//! isomarch marches with compute and reads its results back to the host, so
-//! a frame reaches the window as 8-bit pixels copied into the swapchain
-//! image (no graphics pipeline). One frame is in flight at a time: each
-//! present waits for the previous copy with a deadline, like every other
-//! wait in isomarch.
+//! What a window shows is an image on the GPU: the frame look.comp made
+//! ([`Presenter::present_image`], nothing read back), or pixels the host
+//! made (a frame marched ray by ray, the steps heatmap), uploaded first
+//! ([`Presenter::present`]). present.comp scales the image to the
+//! swapchain's size (nearest neighbour, as the viewer's canvas scales) and
+//! writes it in the swapchain's byte order into a device buffer, which a
+//! transfer copies into the acquired image: no graphics pipeline, no format
+//! conversion (the bytes are sRGB-encoded either way), and only
+//! `TRANSFER_DST` asked of the swapchain. One frame is in flight at a time:
+//! each present waits for the previous one with a deadline, like every
+//! other wait in isomarch.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -14,6 +20,7 @@ use anyhow::{Context as _, Result, anyhow, bail};
 use ash::vk;
 use raw_window_handle::{RawDisplayHandle, RawWindowHandle};
 
+use super::scale::WindowScale;
 use super::{Buffer, Context, GpuError, Role};
 
 /// What a present achieved.
@@ -45,7 +52,12 @@ pub struct Presenter {
     acquired: vk::Semaphore,
     /// One per image, waited by the present: the copy is done.
     copied: Vec<vk::Semaphore>,
-    staging: Option<Buffer>,
+    /// present.comp.
+    scale: WindowScale,
+    /// The window's pixels in the swapchain's byte order (device-local).
+    window: Option<Buffer>,
+    /// Host pixels uploaded for [`Presenter::present`].
+    upload: Option<Buffer>,
     timeout: Duration,
 }
 
@@ -82,6 +94,7 @@ impl Presenter {
             let acquired = d.create_semaphore(&vk::SemaphoreCreateInfo::default(), None)?;
             (pool, cmd, fence, acquired)
         };
+        let scale = WindowScale::new(ctx)?;
         let mut p = Presenter {
             ctx: Arc::clone(ctx),
             surface_loader,
@@ -96,7 +109,9 @@ impl Presenter {
             fence,
             acquired,
             copied: Vec::new(),
-            staging: None,
+            scale,
+            window: None,
+            upload: None,
             timeout,
         };
         if !p.resize(size)? {
@@ -110,8 +125,10 @@ impl Presenter {
         (self.extent.width, self.extent.height)
     }
 
-    /// Waits until the previous frame's copy is done, within the deadline.
-    fn wait_idle_frame(&self) -> Result<()> {
+    /// Waits until the previous frame's present is done, within the
+    /// deadline: before the image it took may be written or freed (a
+    /// renderer making its next frame).
+    pub fn wait_idle_frame(&self) -> Result<()> {
         // SAFETY: the fence belongs to this device.
         match unsafe { self.ctx.device.wait_for_fences(&[self.fence], true, self.timeout.as_nanos() as u64) } {
             Ok(()) => Ok(()),
@@ -208,31 +225,57 @@ impl Presenter {
         self.format = format.format;
         self.extent = extent;
         let bytes = u64::from(extent.width) * u64::from(extent.height) * 4;
-        if self.staging.as_ref().is_none_or(|b| b.size < bytes) {
-            self.staging = None;
-            self.staging = Some(Buffer::with_usage(&self.ctx, "window pixels", bytes, vk::BufferUsageFlags::empty(), Role::Upload)?);
+        if self.window.as_ref().is_none_or(|b| b.size < bytes) {
+            self.window = None;
+            self.window = Some(Buffer::device(&self.ctx, "window pixels", bytes)?);
         }
         Ok(true)
     }
 
     /// Shows `rgb` (row-major, top row first, `extent()` pixels, 3 bytes
-    /// each, sRGB-encoded) in the window.
+    /// each, sRGB-encoded), made on the host, in the window: uploaded, then
+    /// presented as [`Presenter::present_image`] presents.
     pub fn present(&mut self, rgb: &[u8]) -> Result<Presented> {
         let (w, h) = self.extent();
         if rgb.len() != (w * h * 3) as usize {
             bail!("present: {} bytes for a {w}x{h} swapchain", rgb.len());
         }
         self.wait_idle_frame()?;
+        let pixels: Vec<[u8; 4]> = rgb.chunks_exact(3).map(|c| [c[0], c[1], c[2], 255]).collect();
+        let bytes = 4 * pixels.len() as u64;
+        if self.upload.as_ref().is_none_or(|b| b.size < bytes) {
+            self.upload = None;
+            self.upload =
+                Some(Buffer::with_usage(&self.ctx, "window pixels made on the host", bytes, vk::BufferUsageFlags::STORAGE_BUFFER, Role::Upload)?);
+        }
+        let upload = self.upload.as_mut().expect("made above");
+        upload.write(0, &pixels)?;
+        let upload = self.upload.as_ref().expect("made above");
+        self.submit(upload, (w, h))
+    }
+
+    /// Shows `image`, an image on the GPU of `size` pixels (4 bytes each,
+    /// RGBA8, sRGB-encoded, row-major, top row first: look.comp's, see
+    /// [`crate::render::Renderer::frame_image`]), in the window, scaled to
+    /// it by nearest neighbour. Nothing is read back or uploaded.
+    pub fn present_image(&mut self, image: &Buffer, size: (u32, u32)) -> Result<Presented> {
+        self.wait_idle_frame()?;
+        self.submit(image, size)
+    }
+
+    /// Records and submits present.comp from `frame` (`size` pixels) into
+    /// the window's buffer, its copy into the acquired image, and the
+    /// present. The previous frame is done (the caller waited).
+    fn submit(&self, frame: &Buffer, size: (u32, u32)) -> Result<Presented> {
+        let (w, h) = self.extent();
+        let window = self.window.as_ref().ok_or_else(|| anyhow!("no swapchain"))?;
+        self.scale.bind(frame, size, window, (w, h)).context("present")?;
         let bgra = matches!(self.format, vk::Format::B8G8R8A8_UNORM | vk::Format::B8G8R8A8_SRGB);
-        let pixels: Vec<[u8; 4]> = rgb.chunks_exact(3).map(|c| if bgra { [c[2], c[1], c[0], 255] } else { [c[0], c[1], c[2], 255] }).collect();
-        let staging = self.staging.as_mut().ok_or_else(|| anyhow!("no swapchain"))?;
-        staging.write(0, &pixels)?;
-        let staging = staging.handle;
         let d = &self.ctx.device;
         // SAFETY: the previous frame's commands are complete (fence waited),
-        // so the command buffer, fence and semaphores are free; the image
-        // index comes from the swapchain; the staging buffer holds w*h
-        // pixels.
+        // so the command buffer, fence, semaphores and descriptor set are
+        // free; the image index comes from the swapchain; the window buffer
+        // holds w*h pixels and `frame` size.0*size.1 (checked by bind).
         unsafe {
             let timeout = self.timeout.as_nanos() as u64;
             let index = match self.swapchain_loader.acquire_next_image(self.swapchain, timeout, self.acquired, vk::Fence::null()) {
@@ -245,6 +288,7 @@ impl Presenter {
             let range = vk::ImageSubresourceRange::default().aspect_mask(vk::ImageAspectFlags::COLOR).level_count(1).layer_count(1);
             d.reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())?;
             d.begin_command_buffer(self.cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
+            self.scale.record(d, self.cmd, size, (w, h), bgra);
             let transition = |old, new, src_access, dst_access, dst_stage| {
                 let barrier = vk::ImageMemoryBarrier::default()
                     .src_access_mask(src_access)
@@ -268,7 +312,7 @@ impl Presenter {
             let region = vk::BufferImageCopy::default()
                 .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
                 .image_extent(vk::Extent3D { width: w, height: h, depth: 1 });
-            d.cmd_copy_buffer_to_image(self.cmd, staging, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &[region]);
+            d.cmd_copy_buffer_to_image(self.cmd, window.handle, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &[region]);
             transition(
                 vk::ImageLayout::TRANSFER_DST_OPTIMAL,
                 vk::ImageLayout::PRESENT_SRC_KHR,
@@ -309,7 +353,8 @@ impl Drop for Presenter {
             let deadline = Instant::now() + self.timeout;
             let _ = d.wait_for_fences(&[self.fence], true, deadline.saturating_duration_since(Instant::now()).as_nanos() as u64);
             let _ = d.queue_wait_idle(self.ctx.queue);
-            self.staging = None;
+            self.window = None;
+            self.upload = None;
             for s in self.copied.drain(..) {
                 d.destroy_semaphore(s, None);
             }

@@ -41,9 +41,23 @@ use crate::render::offscreen::{DepthCue, Effects, SAMPLE_SEED};
 use crate::render::rays::{ImagePlane, PIXEL_TILE};
 use crate::scene::Scene;
 
-/// What a frame's submission read back: the image, the statistics' words,
-/// the last sample's rays and results where kept, the GPU time.
+/// What a frame's submission read back: the image (where read), the
+/// statistics' words, the last sample's rays and results where kept, the
+/// GPU time.
 type FrameRead = (Vec<u32>, Vec<u32>, Option<(Vec<GpuRay>, Vec<GpuResult>)>, Option<f64>);
+
+/// What a GPU frame reads back besides its statistics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Readback {
+    /// Nothing more: the image stays on the GPU, where a window presents it
+    /// from ([`Renderer::frame_image`]).
+    Statistics,
+    /// The image, 4 bytes a pixel (`render`, batch frames).
+    Image,
+    /// The image and the last sample's rays and results (tests: what the
+    /// GPU reduced, from what).
+    ImageAndRays,
+}
 
 /// One march of a frame: its pipeline, the turns of a slice, the slices
 /// recorded and the most the step budget allows.
@@ -66,8 +80,7 @@ struct FramePlan {
     rays: usize,
     pixels: usize,
     samples: u32,
-    /// Read the last sample's rays and results back too (tests).
-    keep: bool,
+    reads: Readback,
 }
 
 /// Loop turns a march's slices cover in a renderer's first frame (and one
@@ -131,11 +144,12 @@ impl LookPass {
 /// A frame made on the GPU: its image and its march's statistics.
 pub struct GpuFrame {
     /// 8-bit sRGB and alpha (coverage where the background is
-    /// transparent, else 255), row-major, top row first.
+    /// transparent, else 255), row-major, top row first; empty where the
+    /// image stayed on the GPU ([`Readback::Statistics`]).
     pub rgba: Vec<u8>,
     pub stats: MarchStats,
     /// The last sample's rays and results, in tile order, where asked
-    /// ([`Renderer::gpu_frame_keeping`]).
+    /// ([`Readback::ImageAndRays`]).
     pub last: Option<(Vec<GpuRay>, Vec<GpuResult>)>,
 }
 
@@ -257,13 +271,12 @@ impl Renderer {
         samples: u32,
         effects: &Effects,
     ) -> Result<GpuFrame> {
-        self.gpu_frame_keeping(method, options, scene, (width, height), samples, effects, false)
+        self.gpu_frame_reading(method, options, scene, (width, height), samples, effects, Readback::Image)
     }
 
-    /// [`Renderer::gpu_frame`], with the last sample's rays and results
-    /// read back too when `keep` (tests: what the GPU reduced, from what).
+    /// [`Renderer::gpu_frame`], reading back what `reads` says.
     #[allow(clippy::too_many_arguments)]
-    pub fn gpu_frame_keeping(
+    pub fn gpu_frame_reading(
         &mut self,
         method: Method,
         options: MarchOptions,
@@ -271,7 +284,7 @@ impl Renderer {
         (width, height): (u32, u32),
         samples: u32,
         effects: &Effects,
-        keep: bool,
+        reads: Readback,
     ) -> Result<GpuFrame> {
         let tiles_x = width.div_ceil(PIXEL_TILE);
         let rays = (tiles_x * height.div_ceil(PIXEL_TILE) * PIXEL_TILE * PIXEL_TILE) as usize;
@@ -312,7 +325,7 @@ impl Renderer {
                 rays,
                 pixels: pixels as usize,
                 samples: samples.max(1),
-                keep,
+                reads,
             };
             let (image, words, last, gpu_ns) = self.record_frame(&plan, deadline)?;
             if words[layout::LOOK_STAT_UNFINISHED as usize] == 0 {
@@ -332,6 +345,26 @@ impl Renderer {
                 m.slices = (4 * m.slices).min(m.most);
             }
         }
+    }
+
+    /// The last GPU frame's image as it lies on the GPU: 4 bytes a pixel
+    /// (8-bit sRGB and alpha), row-major, top row first, as many pixels as
+    /// that frame had. A window presents it from there
+    /// ([`crate::gpu::Presenter::present_image`]).
+    pub fn frame_image(&self) -> Option<&Buffer> {
+        self.look.as_ref().map(|l| &l.image)
+    }
+
+    /// The first `pixels` pixels of [`Renderer::frame_image`] read back
+    /// (RGBA8): a window's screenshot of a frame it presented from the GPU.
+    pub fn read_frame_image(&mut self, pixels: usize) -> Result<Vec<u8>> {
+        let Some(look) = self.look.as_ref() else { bail!("no frame was made on the GPU") };
+        if pixels as u64 > look.pixels {
+            bail!("{pixels} pixels asked of a frame image of {}", look.pixels);
+        }
+        let image = self.transfers.fetch::<u32>(&look.image, 0, pixels)?;
+        self.submitter.run_with(Instant::now() + self.timeout, self.timeout, &mut self.transfers, |_, _| {})?;
+        Ok(bytemuck::cast_slice(&self.transfers.take::<u32>(image)?).to_vec())
     }
 
     /// Rays, results and states for `rays` rays, and look.comp's buffers for
@@ -375,11 +408,11 @@ impl Renderer {
     /// the statistics.
     fn record_frame(&mut self, plan: &FramePlan, deadline: Instant) -> Result<FrameRead> {
         self.warm_cold()?;
-        let FramePlan { camera, any_hit, batches, rays, pixels, samples, keep } = *plan;
+        let FramePlan { camera, any_hit, batches, rays, pixels, samples, reads } = *plan;
         let look = self.look.as_ref().expect("made by ensure_frame_buffers");
-        let image = self.transfers.fetch::<u32>(&look.image, 0, pixels)?;
+        let image = if reads == Readback::Statistics { None } else { Some(self.transfers.fetch::<u32>(&look.image, 0, pixels)?) };
         let words = self.transfers.fetch::<u32>(&look.stats, 0, layout::LOOK_STAT_WORDS as usize)?;
-        let kept = if keep {
+        let kept = if reads == Readback::ImageAndRays {
             Some((self.transfers.fetch::<GpuRay>(&self.rays, 0, rays)?, self.transfers.fetch::<GpuResult>(&self.results, 0, rays)?))
         } else {
             None
@@ -456,7 +489,10 @@ impl Renderer {
             }
             look_pass(layout::LOOK_PASS_FINISH, 0, pixels as u32, 0);
         })?;
-        let image = self.transfers.take::<u32>(image)?;
+        let image = match image {
+            Some(image) => self.transfers.take::<u32>(image)?,
+            None => Vec::new(),
+        };
         let words = self.transfers.take::<u32>(words)?;
         let last = match kept {
             Some((r, m)) => Some((self.transfers.take::<GpuRay>(r)?, self.transfers.take::<GpuResult>(m)?)),

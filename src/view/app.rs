@@ -24,11 +24,18 @@ use crate::layout::GpuRay;
 use crate::method::Method;
 use crate::molecule::playback::{Order, Prefetch};
 use crate::output::{self, LEGEND_HEIGHT};
+use crate::render::frame::Readback;
 use crate::render::offscreen::{Effects, SAMPLE_SEED};
 use crate::render::offscreen::{march_camera_frame, pixel_stats};
 use crate::render::rays::{PIXEL_TILE, camera_rays, camera_rays_through, subpixel};
 use crate::render::{MarchOptions, Renderer};
 use crate::scene::Scene;
+
+/// How long a frame at rest may hold the window when made whole on the GPU
+/// in one submission (a window at rest answers its input after it); a
+/// frame measured to cost more is marched tile by tile on the host within
+/// the preview's budget, as before.
+const REST_BUDGET: Duration = Duration::from_secs(1);
 
 /// The full-resolution frame being marched tile by tile.
 struct Progressive {
@@ -64,6 +71,8 @@ pub struct App {
     canvas: Canvas,
     /// Previews made whole on the GPU ([`App::gpu_preview`]).
     gpu_frames: u64,
+    /// Presents of an image on the GPU, and whether the last was one.
+    gpu_presents: (u64, bool),
     camera: Camera,
     schedule: Schedule,
     /// The full-resolution pass under way (`Phase::Refining`).
@@ -96,6 +105,7 @@ impl App {
             controls: Controls::new(&options, now),
             canvas: Canvas::default(),
             gpu_frames: 0,
+            gpu_presents: (0, false),
             camera: Camera::new(&options, now),
             schedule: Schedule::new(now),
             pass: None,
@@ -120,6 +130,8 @@ impl App {
             presented: self.schedule.presented,
             full_frames: self.schedule.full_frames,
             gpu_frames: self.gpu_frames,
+            gpu_presents: self.gpu_presents.0,
+            last_from_gpu: self.gpu_presents.1,
             seconds: self.schedule.started.elapsed().as_secs_f64(),
             method: self.controls.method,
             steps_per_ray: self.schedule.steps_per_ray,
@@ -227,6 +239,7 @@ impl App {
     }
 
     fn save_screenshot(&mut self, path: Option<PathBuf>) -> Result<()> {
+        self.read_back_gpu_frame()?;
         let Some(gpu) = &self.gpu else { return Ok(()) };
         let (w, h) = gpu.presenter.extent();
         if !self.canvas.is_whole(w, h) {
@@ -272,14 +285,39 @@ impl App {
         output::heatmap_image(w, rows, &shown.steps[..(w * rows) as usize], None).into_raw()
     }
 
+    /// Where the window shows a frame made on the GPU, its pixels read
+    /// back into the canvas (scaled to the window as the GPU scaled them),
+    /// for what the host does with them: a screenshot, tiles marched over
+    /// it, the heatmap.
+    fn read_back_gpu_frame(&mut self) -> Result<()> {
+        let (Some(small), Some(gpu)) = (self.canvas.on_gpu, &mut self.gpu) else { return Ok(()) };
+        let rgba = gpu.renderer.read_frame_image((small.0 * small.1) as usize)?;
+        let rgb: Vec<u8> = rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+        let size = gpu.presenter.extent();
+        // No steps: the heatmap marches on the host (gpu_preview).
+        self.canvas.upscale(small, &rgb, &vec![0; (small.0 * small.1) as usize], size);
+        Ok(())
+    }
+
+    /// Shows the canvas: a frame made on the GPU presented from there, or
+    /// the host's pixels (or their heatmap) uploaded.
     fn show(&mut self) -> Result<()> {
-        let pixels = self.displayed();
-        let Some(gpu) = &mut self.gpu else { return Ok(()) };
-        if pixels.is_empty() {
-            return Ok(());
+        let from_gpu = self.canvas.on_gpu.filter(|_| !self.controls.heatmap);
+        if from_gpu.is_none() {
+            self.read_back_gpu_frame()?;
         }
-        let shown = gpu.presenter.present(&pixels)?;
+        let pixels = if from_gpu.is_some() { Vec::new() } else { self.displayed() };
+        let Some(gpu) = &mut self.gpu else { return Ok(()) };
+        let shown = match from_gpu {
+            Some(small) => {
+                let image = gpu.renderer.frame_image().ok_or_else(|| anyhow!("no frame made on the GPU to show"))?;
+                gpu.presenter.present_image(image, small)?
+            }
+            None if pixels.is_empty() => return Ok(()),
+            None => gpu.presenter.present(&pixels)?,
+        };
         if shown != Presented::OutOfDate {
+            self.gpu_presents = (self.gpu_presents.0 + u64::from(from_gpu.is_some()), from_gpu.is_some());
             self.schedule.presented += 1;
             self.schedule.fps_window.1 += 1;
         }
@@ -331,30 +369,61 @@ impl App {
         Ok(out)
     }
 
-    /// A preview made whole on the GPU (render::frame: the camera rays,
-    /// the march, the look and the 8-bit image, 4 bytes a pixel read back)
-    /// where it applies and the steps heatmap is not shown (it needs every
-    /// ray's steps): its sRGB pixels and steps per ray, shadows and
-    /// occlusion included where the scene asks, as `render` makes them.
-    fn gpu_preview(&mut self, scene: &Scene, size: (u32, u32)) -> Result<Option<(Vec<u8>, f64)>> {
+    /// A frame made whole on the GPU (render::frame: the camera rays, the
+    /// march, the look, `samples` samples' mean and the 8-bit image, left
+    /// on the GPU for the window to present: the canvas shows it) where it
+    /// applies and the steps heatmap is not shown (it needs every ray's
+    /// steps): its steps per ray, shadows and occlusion included where the
+    /// scene asks, as `render` makes them.
+    fn gpu_preview(&mut self, scene: &Scene, size: (u32, u32), samples: u32) -> Result<Option<f64>> {
         let Some(gpu) = self.gpu.as_mut() else { return Ok(None) };
         let options = MarchOptions::for_scene(scene);
         if self.controls.heatmap || !gpu.renderer.gpu_frame_applies(&options, scene, size) {
             return Ok(None);
         }
+        // The window may still be reading the last frame's image, which
+        // this frame writes (or frees, for a larger one).
+        gpu.presenter.wait_idle_frame()?;
         gpu.renderer.set_scene(scene)?;
-        let t = Instant::now();
+        let (t, pipelines) = (Instant::now(), gpu.renderer.pipeline_ms());
         let method = self.controls.method;
         gpu.renderer.prepare_camera(method, &options, &scene.camera, size.0, size.1)?;
-        let frame = gpu.renderer.gpu_frame(method, options, scene, size, 1, &Effects::default())?;
+        let frame = gpu.renderer.gpu_frame_reading(method, options, scene, size, samples, &Effects::default(), Readback::Statistics)?;
         let rays = (size.0.div_ceil(PIXEL_TILE) * size.1.div_ceil(PIXEL_TILE) * PIXEL_TILE * PIXEL_TILE) as usize;
-        self.schedule.measured(t.elapsed(), rays);
+        // The frame's cost without the pipelines made for it (once: the
+        // first frame would otherwise price every later one).
+        let made = Duration::from_secs_f64(((gpu.renderer.pipeline_ms() - pipelines) * 1e-3).max(0.0));
+        self.schedule.measured(t.elapsed().saturating_sub(made), rays * samples as usize);
         if let Some(p) = &mut self.player {
             p.stats.march_ms += t.elapsed().as_secs_f64() * 1e3;
         }
-        let rgb = frame.rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
         self.gpu_frames += 1;
-        Ok(Some((rgb, frame.stats.steps_per_ray)))
+        self.canvas.show_gpu(size);
+        Ok(Some(frame.stats.steps_per_ray))
+    }
+
+    /// At rest, the full-resolution frame made whole on the GPU with all its
+    /// anti-aliasing samples (as `render` makes it), where that path
+    /// applies and the frame's cost, as measured so far, fits
+    /// [`REST_BUDGET`] (or the preview's budget, if longer): the window
+    /// then shows the GPU's image and marches no tiles on the host. `false`:
+    /// the frame is left to the tiles.
+    fn gpu_rest_frame(&mut self, size: (u32, u32)) -> Result<bool> {
+        let samples = self.options.samples.max(1);
+        let rays = f64::from(size.0) * f64::from(size.1) * f64::from(samples);
+        if rays > self.schedule.affordable_rays(self.options.preview.max(REST_BUDGET)) {
+            return Ok(false);
+        }
+        let scene = self.posed(size);
+        let started = Instant::now();
+        let Some(steps_per_ray) = self.gpu_preview(&scene, size, samples)? else { return Ok(false) };
+        let schedule = &mut self.schedule;
+        schedule.frame_ms = started.elapsed().as_secs_f64() * 1e3;
+        schedule.steps_per_ray = steps_per_ray;
+        schedule.full_frames += 1;
+        schedule.preview_divisor = 1;
+        schedule.phase = Phase::Idle;
+        Ok(true)
     }
 
     /// Renders at a resolution that fits the preview budget and shows it
@@ -367,12 +436,10 @@ impl App {
         let small = (size.0.div_ceil(divisor).max(1), size.1.div_ceil(divisor).max(1));
         let scene = self.posed(small);
         let started = Instant::now();
-        if let Some((rgb, steps_per_ray)) = self.gpu_preview(&scene, small)? {
+        if let Some(steps_per_ray) = self.gpu_preview(&scene, small, 1)? {
             let schedule = &mut self.schedule;
             schedule.frame_ms = started.elapsed().as_secs_f64() * 1e3;
             schedule.steps_per_ray = steps_per_ray;
-            // No steps: the heatmap marches on the host (gpu_preview).
-            self.canvas.upscale(small, &rgb, &vec![0; (small.0 * small.1) as usize], size);
         } else {
             let (rays, pixels) = camera_rays(&scene.camera, small.0, small.1, &scene.bounds);
             let out = self.march(&scene, small, &rays, 0)?;
@@ -395,6 +462,12 @@ impl App {
     /// Starts marching the full-resolution frame, tile by tile: through the
     /// pixels' centres, or anti-aliasing pass `sample` of `samples`.
     fn start_pass(&mut self, size: (u32, u32), sample: Option<u32>) -> Result<()> {
+        // The first pass at rest: the whole frame on the GPU where it can.
+        if sample.is_none_or(|s| s == 0) && self.gpu_rest_frame(size)? {
+            return self.show();
+        }
+        // The tiles are drawn over the frame shown, on the host.
+        self.read_back_gpu_frame()?;
         let scene = self.posed(size);
         let n = self.options.samples;
         let (rays, pixels) = match sample {

@@ -1,7 +1,10 @@
 //! What the window shows: the shaded pixels (sRGB) and each pixel's
 //! steps, filled by a preview scaled up to the window or by the tiles of a
-//! full-resolution pass, and the running mean of anti-aliasing passes.
+//! full-resolution pass, and the running mean of anti-aliasing passes; or
+//! a frame made on the GPU, presented from there and read back only when
+//! the host needs its pixels (a screenshot, tiles marched over it).
 
+use crate::gpu::scale::nearest;
 use crate::output;
 
 /// The window's pixels.
@@ -13,6 +16,10 @@ pub struct Canvas {
     pub steps: Vec<u32>,
     /// Anti-aliasing: the running mean of the passes so far (linear light).
     linear: Vec<[f32; 3]>,
+    /// The size of the frame made on the GPU that the window shows, where
+    /// it does; `rgb` and `steps` are then empty until it is read back
+    /// ([`Canvas::upscale`] fills them).
+    pub on_gpu: Option<(u32, u32)>,
 }
 
 impl Canvas {
@@ -20,10 +27,18 @@ impl Canvas {
     pub fn clear(&mut self) {
         self.rgb.clear();
         self.steps.clear();
+        self.on_gpu = None;
     }
 
     pub fn is_empty(&self) -> bool {
-        self.rgb.is_empty()
+        self.rgb.is_empty() && self.on_gpu.is_none()
+    }
+
+    /// The window shows the renderer's frame image of `small` pixels,
+    /// scaled on the GPU; no host pixels.
+    pub fn show_gpu(&mut self, small: (u32, u32)) {
+        self.clear();
+        self.on_gpu = Some(small);
     }
 
     /// Whether the canvas holds a whole `w` x `h` image.
@@ -35,12 +50,14 @@ impl Canvas {
     /// up to `size` by nearest neighbour.
     pub fn upscale(&mut self, small: (u32, u32), rgb: &[u8], steps: &[u32], size: (u32, u32)) {
         let (w, h) = size;
+        self.on_gpu = None;
         self.rgb = vec![0; (w * h * 3) as usize];
         self.steps = vec![0; (w * h) as usize];
+        // The pixels present.comp shows (crate::gpu::scale).
         for y in 0..h {
-            let sy = (y * small.1 / h).min(small.1 - 1);
+            let sy = nearest(y, small.1, h);
             for x in 0..w {
-                let sx = (x * small.0 / w).min(small.0 - 1);
+                let sx = nearest(x, small.0, w);
                 let (i, s) = ((y * w + x) as usize, (sy * small.0 + sx) as usize);
                 self.rgb[3 * i..3 * i + 3].copy_from_slice(&rgb[3 * s..3 * s + 3]);
                 self.steps[i] = steps[s];

@@ -100,9 +100,14 @@ pub struct PlaybackStats {
 pub struct ViewSummary {
     pub presented: u64,
     pub full_frames: u64,
-    /// Previews made whole on the GPU (render::frame), 4 bytes a pixel
-    /// read back; the rest were marched ray by ray with the host's look.
+    /// Previews made whole on the GPU (render::frame) and left there; the
+    /// rest were marched ray by ray with the host's look.
     pub gpu_frames: u64,
+    /// Presents that took an image on the GPU (nothing uploaded); the rest
+    /// uploaded the host's pixels.
+    pub gpu_presents: u64,
+    /// Whether the last present took an image on the GPU.
+    pub last_from_gpu: bool,
     pub seconds: f64,
     pub method: Method,
     pub steps_per_ray: f64,
