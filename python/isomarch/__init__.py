@@ -224,7 +224,9 @@ class Trajectory:
     frame's atoms; ``"all"``: on every frame's), each frame's atoms made
     into blobs by ``options`` or its fields as keywords (as
     :meth:`Scene.from_molecule` takes them). Frames are read when asked
-    for, one at a time: ``len(t)``, ``t[k]``, ``for scene in t``.
+    for: ``len(t)``, ``t[k]``; ``for scene in t``, :meth:`frames` and
+    :meth:`movie` read each frame on a thread of their own while the one
+    before is rendered (two ahead), as ``isomarch render --frames`` does.
 
     ``pbc`` is the command line's ``--pbc``: ``"auto"`` (molecules split by
     the periodic box made whole where the file has a box and one is split;
@@ -279,8 +281,28 @@ class Trajectory:
         return scene
 
     def __iter__(self):
-        for k in range(len(self)):
-            yield self[k]
+        return self.frames()
+
+    def frames(self, frames: Optional[range] = None):
+        """The scenes of ``frames`` (a range or a list of frame numbers,
+        default every frame), in that order, each read and made into a
+        scene on a thread of its own while the caller renders the one
+        before: the same scenes as ``t[k]``."""
+        frames = [int(k) for k in (range(len(self)) if frames is None else frames)]
+        n = len(self)
+        frames = [k + n if k < 0 else k for k in frames]
+        ahead = self._native.prefetch(frames)
+        for k in frames:
+            got = ahead.next()
+            if got is None:
+                raise IsomarchError(f"frame {k}: the reader stopped early")
+            frame, native, time_ps, between = got
+            if frame != k:
+                raise IsomarchError(f"frame {k} asked, frame {frame} read")
+            scene = Scene(native, self.warnings, self.summary)
+            scene.time_ps = time_ps
+            scene.between = between
+            yield scene
 
     def movie(
         self,
@@ -328,8 +350,8 @@ class Trajectory:
         movie = _native.NativeMovie(path, float(fps), str(quality), int(width), int(height))
         try:
             renderer = Renderer() if renderer is None else renderer
-            for k in frames:
-                scene = first if k == frames[0] else self[k]
+            # The next frame is read while this one renders.
+            for k, scene in zip(frames, self.frames(frames)):
                 movie.push(renderer.render(scene, (width, height), method, k / float(fps), samples, _movie=path, **look))
         except BaseException:
             movie.abandon()

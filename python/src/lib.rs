@@ -495,6 +495,57 @@ struct NativeTrajectory {
     stager: std::sync::Mutex<isomarch::molecule::playback::Stager>,
     len: usize,
     source: String,
+    /// What opened it, for a second stager that reads ahead
+    /// ([`NativeTrajectory::prefetch`]).
+    opened: Opened,
+}
+
+/// A trajectory's files and how its frames become scenes.
+#[derive(Clone)]
+struct Opened {
+    topology: PathBuf,
+    trajectory: Option<PathBuf>,
+    options: MoleculeOptions,
+    rule: isomarch::molecule::playback::FramingRule,
+    pbc: isomarch::molecule::pbc::Pbc,
+    interpolate: usize,
+}
+
+impl Opened {
+    fn stager(&self) -> anyhow::Result<isomarch::molecule::playback::Stager> {
+        let (mut t, _) = isomarch::molecule::trajectory::open_with(&self.topology, self.trajectory.as_deref(), self.pbc)?;
+        t.set_interpolate(self.interpolate);
+        isomarch::molecule::playback::Stager::new(t, self.options.clone(), self.rule)
+    }
+}
+
+/// A trajectory's frames read and made into scenes on a thread of their
+/// own, two ahead of the caller (`Trajectory.frames`, iteration and
+/// `movie`: the next frame is read while this one renders), as `render
+/// --frames` and the window read theirs.
+#[pyclass]
+struct NativeFrames {
+    prefetch: std::sync::Mutex<isomarch::molecule::playback::Prefetch>,
+}
+
+#[pymethods]
+impl NativeFrames {
+    /// The next frame: its index, scene, simulation time (ps, or None) and
+    /// the saved frames it lies between; None once every frame asked for
+    /// was given.
+    #[allow(clippy::type_complexity)]
+    fn next(&self, py: Python<'_>) -> PyResult<Option<(usize, NativeScene, Option<f64>, (usize, usize, f64))>> {
+        let prefetch = &self.prefetch;
+        let staged =
+            py.detach(|| prefetch.lock().map_err(|_| anyhow::anyhow!("the frames' lock is poisoned")).map(|mut p| p.wait())).map_err(raise)?;
+        match staged {
+            None => Ok(None),
+            Some(s) => {
+                let s = s.map_err(raise)?;
+                Ok(Some((s.frame, NativeScene { scene: s.scene }, s.time_ps, s.between)))
+            }
+        }
+    }
 }
 
 #[pymethods]
@@ -513,6 +564,7 @@ impl NativeTrajectory {
         let mut stager = self.stager.lock().map_err(|_| IsomarchError::new_err("the trajectory's lock is poisoned"))?;
         stager.trajectory.set_interpolate(k);
         self.len = stager.len();
+        self.opened.interpolate = k;
         Ok(self.len)
     }
 
@@ -520,6 +572,21 @@ impl NativeTrajectory {
     fn between(&self, k: usize) -> PyResult<(usize, usize, f64)> {
         let stager = self.stager.lock().map_err(|_| IsomarchError::new_err("the trajectory's lock is poisoned"))?;
         Ok(stager.trajectory.between(k))
+    }
+
+    /// `frames`, in this order, read ahead on a thread of their own.
+    fn prefetch(&self, py: Python<'_>, frames: Vec<usize>) -> PyResult<NativeFrames> {
+        if let Some(&k) = frames.iter().find(|&&k| k >= self.len) {
+            return Err(IsomarchError::new_err(format!("{}: no frame {k}: the trajectory has {}", self.source, self.len)));
+        }
+        let opened = self.opened.clone();
+        let prefetch = py
+            .detach(|| -> anyhow::Result<_> {
+                use isomarch::molecule::playback::{Order, Prefetch};
+                Prefetch::spawn(opened.stager()?, Order::List(frames), 2)
+            })
+            .map_err(raise)?;
+        Ok(NativeFrames { prefetch: std::sync::Mutex::new(prefetch) })
     }
 
     /// Frame `k`'s scene and simulation time (ps, or None).
@@ -543,6 +610,7 @@ fn trajectory_open(
 ) -> PyResult<(NativeTrajectory, Vec<String>, String)> {
     use isomarch::molecule::playback::Stager;
     let (o, rule, pbc) = (options.options.clone(), framing.0, pbc.0);
+    let opened = Opened { topology: topology.clone(), trajectory: trajectory.clone(), options: o.clone(), rule, pbc, interpolate };
     let (stager, mut notes, pbc_note) = py
         .detach(|| -> anyhow::Result<_> {
             let (mut t, pbc_note) = isomarch::molecule::trajectory::open_with(&topology, trajectory.as_deref(), pbc)?;
@@ -555,7 +623,7 @@ fn trajectory_open(
     // What --pbc did goes with the warnings, as the command line's note.
     notes.warnings.extend(pbc_note);
     let (len, source) = (stager.len(), stager.trajectory.source.clone());
-    Ok((NativeTrajectory { stager: std::sync::Mutex::new(stager), len, source }, notes.warnings, notes.summary))
+    Ok((NativeTrajectory { stager: std::sync::Mutex::new(stager), len, source, opened }, notes.warnings, notes.summary))
 }
 
 /// A movie being written (`Trajectory.movie`): RGBA frames pushed in
@@ -618,6 +686,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<NativeScene>()?;
     m.add_class::<NativeRenderer>()?;
     m.add_class::<NativeTrajectory>()?;
+    m.add_class::<NativeFrames>()?;
     m.add_class::<NativeMovie>()?;
     m.add_function(wrap_pyfunction!(trajectory_open, m)?)?;
     m.add_function(wrap_pyfunction!(scene_load, m)?)?;

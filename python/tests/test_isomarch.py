@@ -328,6 +328,28 @@ def test_trajectories_default_framing_xtc_input_and_models_alone(renderer, tmp_p
     assert renderer.render(alone[0], size=(32, 32)).png() != (tmp_path / "model1.png").read_bytes(), "models 0 and 1 alike"
 
 
+def test_frames_read_ahead_are_the_frames_indexed(renderer):
+    # Iteration and frames() read each frame on the reader's thread, ahead
+    # of the caller: the same scenes, times and saved frames as t[k], in
+    # the order asked for (XTC, a list out of order, negative numbers,
+    # interpolated frames).
+    gro, xtc = ROOT / "tests/data/trajectories/YiiP_lipids.gro.gz", ROOT / "tests/data/trajectories/YiiP_lipids.xtc"
+    t = isomarch.Trajectory(gro, xtc, interpolate=1)
+    assert len(t) == 9, len(t)
+    for order in [None, [4, 0, 8, 3], [-1, 1]]:
+        ahead = list(t.frames(order))
+        indexed = [t[k] for k in (range(len(t)) if order is None else order)]
+        assert len(ahead) == len(indexed)
+        for a, b in zip(ahead, indexed):
+            assert (a.time_ps, a.between) == (b.time_ps, b.between), (order, a.between, b.between)
+            assert renderer.render(a, size=(24, 24)).png() == renderer.render(b, size=(24, 24)).png(), (order, a.between)
+    # Frames that differ, not one frame over and over.
+    pngs = {renderer.render(s, size=(24, 24)).png() for s in t}
+    assert len(pngs) > 4, len(pngs)
+    with pytest.raises(isomarch.IsomarchError):
+        list(t.frames([9]))
+
+
 def test_selections_and_values_per_frame_equal_the_clis(renderer, tmp_path):
     # A selection as the command line's --select: the same scene.
     out = tmp_path / "sel.ron"
