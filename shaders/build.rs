@@ -7,9 +7,11 @@
 //! The check compiles without optimisation (a fraction of a second a
 //! kernel), so a shader error still fails the build with glslang's
 //! file:line message, warnings included. The optimised SPIR-V is made when
-//! a program first needs a kernel: spirv-opt's performance passes spend
-//! about a minute on each marching kernel on 2 cores, and a picture needs
-//! one or two of the eight (docs/performance.md, "The shaders' build").
+//! a program first needs a kernel: spirv-opt's passes (options::PASSES)
+//! spend 10 to 27 s on each marching kernel on 2 cores, and a picture
+//! needs one or two of the ten (docs/performance.md, "The shaders'
+//! build"). It also compiles shaders/cpp/optimize.cpp, which runs those
+//! passes (build_pass_runner).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -37,6 +39,7 @@ fn run() -> Result<(), String> {
     let kinds_dir = include_dir.join("kinds");
     println!("cargo:rerun-if-changed=../src/layout.rs");
     say_which_shaderc();
+    build_pass_runner()?;
     // Directories themselves, so that adding a shader file reruns the build.
     println!("cargo:rerun-if-changed={}", shaders.display());
     println!("cargo:rerun-if-changed={}", include_dir.display());
@@ -65,10 +68,10 @@ fn run() -> Result<(), String> {
         contents.push((name.clone(), std::fs::read_to_string(path).map_err(|e| format!("reading {}: {e}", path.display()))?));
     }
     // What every kernel's SPIR-V depends on besides its own source and
-    // define: the includes (by name, so that clones share the cache) and
-    // the shaderc linked.
+    // define: the includes (by name, so that clones share the cache), the
+    // shaderc linked and the spirv-opt passes (options::PASSES).
     let shared_key = {
-        let mut inputs = vec![shaderc_identity()];
+        let mut inputs = vec![shaderc_identity(), options::PASSES.join(" ")];
         for (name, text) in &contents {
             inputs.push(name.clone());
             inputs.push(text.clone());
@@ -171,6 +174,35 @@ fn key(k: &Kernel, shared: &[String]) -> String {
         h.finish()
     };
     format!("{:016x}{:016x}", half(1), half(2))
+}
+
+/// Compiles shaders/cpp/optimize.cpp, which runs options::PASSES with
+/// SPIRV-Tools' optimizer, where shaderc is linked from Debian's archive
+/// (which holds SPIRV-Tools) and SPIRV-Tools' header is installed (package
+/// spirv-tools, from scripts/env.sh), and says so to the crate
+/// (`cfg(isomarch_pass_list)`). Elsewhere (shaderc built from source, whose
+/// SPIRV-Tools may differ from the system's header) the kernels keep
+/// shaderc's performance passes.
+fn build_pass_runner() -> Result<(), String> {
+    println!("cargo::rustc-check-cfg=cfg(isomarch_pass_list)");
+    println!("cargo:rerun-if-changed=cpp/optimize.cpp");
+    let archive = std::env::var_os("SHADERC_LIB_DIR").map(|d| PathBuf::from(d).join("libshaderc_combined.a")).is_some_and(|a| a.is_file());
+    let header = Path::new("/usr/include/spirv-tools/optimizer.hpp");
+    println!("cargo:rerun-if-changed={}", header.display());
+    if !archive || !header.is_file() {
+        return Ok(());
+    }
+    // No C++ runtime named: the merged archive holds libstdc++ (see
+    // isomarch_shaderc_archive in scripts/env.sh).
+    cc::Build::new()
+        .cpp(true)
+        .cpp_link_stdlib(None)
+        .std("c++17")
+        .file("cpp/optimize.cpp")
+        .try_compile("isomarch_spirv_opt")
+        .map_err(|e| format!("compiling shaders/cpp/optimize.cpp: {e}"))?;
+    println!("cargo:rustc-cfg=isomarch_pass_list");
+    Ok(())
 }
 
 /// Says in the build's output which shaderc compiles the shaders: Debian's

@@ -3,15 +3,20 @@
 //!
 //! The build script (shaders/build.rs) checks that every kernel compiles
 //! and embeds their GLSL, with a key of everything their SPIR-V depends on.
-//! [`Kernel::spirv`] compiles a kernel with shaderc's performance passes
-//! the first time a process asks for it, or reads the SPIR-V that an
-//! earlier run left in the cache ([`cache_dir`]). So a picture pays for the
-//! one or two kernels it uses, and only once per machine: spirv-opt spends
-//! about a minute on a marching kernel on 2 cores, and there are eleven (five of them marching).
+//! [`Kernel::spirv`] compiles a kernel and optimises it with spirv-opt's
+//! passes (`options::PASSES`: the SSA passes function by function, then
+//! the inlining, then one cleanup) the first time a process asks for it,
+//! or reads the SPIR-V that an earlier run left in the cache
+//! ([`cache_dir`]). So a picture pays for the one or two kernels it uses,
+//! and only once per machine: the passes spend up to half a minute on a
+//! marching kernel on 2 cores, and there are eleven kernels (five of them
+//! marching).
 //!
-//! `ISOMARCH_SHADER_OPT=zero` compiles without optimisation (under a second
-//! a kernel, but lavapipe then spends a minute or more making each
-//! pipeline: docs/performance.md, "The shaders' build").
+//! `ISOMARCH_SHADER_OPT=performance` optimises with shaderc's performance
+//! passes instead (`spirv-opt -O`: the same images, about twice the
+//! time), `zero` not at all (under a second a kernel, but lavapipe then
+//! spends a minute or more making each pipeline: docs/performance.md, "The
+//! shaders' build").
 
 mod options;
 
@@ -107,13 +112,41 @@ impl Kernel {
     }
 }
 
-/// How the kernels are optimised: shaderc's performance passes unless
-/// `ISOMARCH_SHADER_OPT=zero`.
-fn optimisation() -> Result<(shaderc::OptimizationLevel, &'static str), String> {
+/// How the kernels are optimised.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Optimisation {
+    /// shaderc without optimisation, then `options::PASSES`.
+    PassList,
+    /// shaderc's performance passes (`spirv-opt -O`).
+    Performance,
+    /// None.
+    Zero,
+}
+
+impl Optimisation {
+    /// The name in a cached kernel's file name.
+    fn name(self) -> &'static str {
+        match self {
+            Optimisation::PassList => "passes",
+            Optimisation::Performance => "performance",
+            Optimisation::Zero => "zero",
+        }
+    }
+}
+
+/// `options::PASSES` unless `ISOMARCH_SHADER_OPT` says `performance` or
+/// `zero`; shaderc's performance passes where the build has no runner for
+/// the list (shaderc built from source: shaders/build.rs).
+fn optimisation() -> Result<Optimisation, String> {
+    let default = if cfg!(isomarch_pass_list) { Optimisation::PassList } else { Optimisation::Performance };
     match std::env::var("ISOMARCH_SHADER_OPT").as_deref() {
-        Err(_) | Ok("") | Ok("performance") => Ok((shaderc::OptimizationLevel::Performance, "performance")),
-        Ok("zero") => Ok((shaderc::OptimizationLevel::Zero, "zero")),
-        Ok(other) => Err(format!("ISOMARCH_SHADER_OPT={other:?}: expected performance or zero")),
+        Err(_) | Ok("") => Ok(default),
+        Ok("passes") if cfg!(isomarch_pass_list) => Ok(Optimisation::PassList),
+        Ok("performance") => Ok(Optimisation::Performance),
+        Ok("zero") => Ok(Optimisation::Zero),
+        Ok(other) => {
+            Err(format!("ISOMARCH_SHADER_OPT={other:?}: expected {}performance or zero", if cfg!(isomarch_pass_list) { "passes, " } else { "" }))
+        }
     }
 }
 
@@ -138,11 +171,11 @@ pub fn cache_dir() -> Option<PathBuf> {
 /// lock file, so that it is compiled once; a cache that cannot be read or
 /// written costs only time.
 fn load_or_compile(k: &KernelSource) -> Result<Vec<u32>, String> {
-    let (level, level_name) = optimisation()?;
+    let opt = optimisation()?;
     let Some(dir) = cache_dir().filter(|d| std::fs::create_dir_all(d).is_ok()) else {
-        return compile(k, level, None);
+        return compile(k, opt, None);
     };
-    let path = dir.join(format!("{}-{}-{level_name}.spv", k.name, k.key));
+    let path = dir.join(format!("{}-{}-{}.spv", k.name, k.key, opt.name()));
     if let Some(words) = read_spirv(&path) {
         return Ok(words);
     }
@@ -153,7 +186,7 @@ fn load_or_compile(k: &KernelSource) -> Result<Vec<u32>, String> {
     if let Some(words) = read_spirv(&path) {
         return Ok(words);
     }
-    let words = compile(k, level, Some(&dir))?;
+    let words = compile(k, opt, Some(&dir))?;
     // Written under a temporary name, then renamed: a reader never sees
     // half a file.
     let tmp = dir.join(format!(".{}.{}.tmp", k.name, std::process::id()));
@@ -175,22 +208,83 @@ fn read_spirv(path: &Path) -> Option<Vec<u32>> {
     (bytes.len() % 4 == 0 && words.len() > 5 && words[0] == 0x0723_0203).then_some(words)
 }
 
-/// Compiles a kernel with shaderc, saying so on stderr where it is to be
-/// kept (the user waits for it once).
-fn compile(k: &KernelSource, level: shaderc::OptimizationLevel, kept_in: Option<&Path>) -> Result<Vec<u32>, String> {
+/// Compiles a kernel with shaderc (and optimises it), saying so on stderr
+/// where it is to be kept (the user waits for it once).
+fn compile(k: &KernelSource, opt: Optimisation, kept_in: Option<&Path>) -> Result<Vec<u32>, String> {
     let started = Instant::now();
     if let Some(dir) = kept_in {
         eprintln!("isomarch: compiling the {} kernel, once (kept in {})", k.name, dir.display());
     }
+    let level = match opt {
+        Optimisation::Performance => shaderc::OptimizationLevel::Performance,
+        Optimisation::PassList | Optimisation::Zero => shaderc::OptimizationLevel::Zero,
+    };
     let compiler = shaderc::Compiler::new().map_err(|e| format!("shaderc: {e}"))?;
     let options = options::options(level, k.define, |name| INCLUDES.iter().find(|(n, _)| *n == name).map(|(_, text)| text.to_string()))?;
     let artifact = compiler
         .compile_into_spirv(k.source, shaderc::ShaderKind::Compute, k.file, "main", Some(&options))
         .map_err(|e| format!("compiling the {} kernel: {e}", k.name))?;
+    let words = match opt {
+        Optimisation::PassList => run_passes(artifact.as_binary(), options::PASSES).map_err(|e| format!("optimising the {} kernel: {e}", k.name))?,
+        Optimisation::Performance | Optimisation::Zero => artifact.as_binary().to_vec(),
+    };
     if kept_in.is_some() {
         eprintln!("isomarch: compiled the {} kernel in {:.1} s", k.name, started.elapsed().as_secs_f64());
     }
-    Ok(artifact.as_binary().to_vec())
+    Ok(words)
+}
+
+#[cfg(isomarch_pass_list)]
+unsafe extern "C" {
+    /// shaders/cpp/optimize.cpp.
+    fn isomarch_spirv_optimize(
+        words: *const u32,
+        count: usize,
+        flags: *const *const std::ffi::c_char,
+        flag_count: usize,
+        context: *mut std::ffi::c_void,
+        sink: unsafe extern "C" fn(*mut std::ffi::c_void, *const u32, usize),
+        report: unsafe extern "C" fn(*mut std::ffi::c_void, *const std::ffi::c_char),
+    ) -> std::ffi::c_int;
+}
+
+/// Runs spirv-opt's `passes` (command-line flags) over `words` with the
+/// SPIRV-Tools inside the linked shaderc.
+#[cfg(isomarch_pass_list)]
+fn run_passes(words: &[u32], passes: &[&str]) -> Result<Vec<u32>, String> {
+    use std::ffi::{CStr, CString, c_char, c_void};
+    /// What the optimizer hands back: the module's words and its messages.
+    #[derive(Default)]
+    struct Out {
+        words: Vec<u32>,
+        messages: Vec<String>,
+    }
+    unsafe extern "C" fn sink(context: *mut c_void, words: *const u32, count: usize) {
+        // SAFETY: `context` is the `Out` below, alive for the call; the
+        // optimizer's result holds `count` words at `words`.
+        unsafe { (*context.cast::<Out>()).words.extend_from_slice(std::slice::from_raw_parts(words, count)) }
+    }
+    unsafe extern "C" fn report(context: *mut c_void, text: *const c_char) {
+        // SAFETY: as in `sink`; the message is a NUL-terminated string.
+        unsafe { (*context.cast::<Out>()).messages.push(CStr::from_ptr(text).to_string_lossy().into_owned()) }
+    }
+    let flags: Vec<CString> = passes.iter().map(|p| CString::new(*p).map_err(|e| e.to_string())).collect::<Result<_, _>>()?;
+    let pointers: Vec<*const c_char> = flags.iter().map(|f| f.as_ptr()).collect();
+    let mut out = Out::default();
+    // SAFETY: every pointer is valid for the call and its length; the
+    // callbacks only reach `out` through `context`.
+    let status =
+        unsafe { isomarch_spirv_optimize(words.as_ptr(), words.len(), pointers.as_ptr(), pointers.len(), (&raw mut out).cast(), sink, report) };
+    match status {
+        0 if !out.words.is_empty() => Ok(out.words),
+        1 => Err(format!("spirv-opt does not know one of the passes {}", passes.join(" "))),
+        _ => Err(format!("spirv-opt failed (status {status}): {}", out.messages.join("; "))),
+    }
+}
+
+#[cfg(not(isomarch_pass_list))]
+fn run_passes(_words: &[u32], _passes: &[&str]) -> Result<Vec<u32>, String> {
+    Err("this build has no runner for spirv-opt's passes (shaderc built from source: shaders/build.rs)".into())
 }
 
 #[cfg(test)]
@@ -206,6 +300,18 @@ mod tests {
             assert!(Kernel::ALL.iter().any(|k| k.name() == s.name), "{} has no Kernel", s.name);
         }
         assert_eq!(SOURCES.len(), Kernel::ALL.len());
+    }
+
+    /// The pass list runs where the build made its runner (the index
+    /// kernel: a second or so), and a flag it does not know is refused.
+    #[test]
+    #[cfg(isomarch_pass_list)]
+    fn the_pass_list_optimises_a_kernel_and_refuses_an_unknown_pass() {
+        let words = compile(Kernel::Index.source().unwrap(), Optimisation::PassList, None).unwrap();
+        assert_eq!(words[0], 0x0723_0203);
+        let zero = compile(Kernel::Index.source().unwrap(), Optimisation::Zero, None).unwrap();
+        assert!(words.len() < zero.len(), "{} words optimised, {} not", words.len(), zero.len());
+        assert!(run_passes(&zero, &["--no-such-pass"]).unwrap_err().contains("--no-such-pass"));
     }
 
     #[test]

@@ -1,6 +1,57 @@
 //! The shaderc options every kernel is compiled with, shared by the build
 //! script's check (shaders/build.rs) and the compilation at run time
-//! (src/lib.rs), so that what the build checks is what a program compiles.
+//! (src/lib.rs), so that what the build checks is what a program compiles;
+//! and the spirv-opt passes the kernels are optimised with.
+
+/// The spirv-opt passes (their command-line flags) that optimise a kernel
+/// compiled without optimisation: the SSA passes function by function
+/// first, while each function is small, then the inlining of everything
+/// into the entry point, then one cleanup of the inlined function. It
+/// makes the same images as shaderc's performance passes (`spirv-opt -O`,
+/// which inlines first and runs its SSA passes, some twice, on the one
+/// giant function) in about half their time; what it costs on lavapipe is
+/// measured in docs/performance.md, "The shaders' build". The build script
+/// hashes this list into every kernel's cache key.
+pub const PASSES: &[&str] = &[
+    // Function by function.
+    "--strip-debug",
+    "--wrap-opkill",
+    "--eliminate-dead-branches",
+    "--merge-return",
+    "--eliminate-local-single-block",
+    "--eliminate-local-single-store",
+    "--scalar-replacement=100",
+    "--convert-local-access-chains",
+    "--eliminate-local-single-block",
+    "--eliminate-local-single-store",
+    "--ssa-rewrite",
+    "--eliminate-dead-code-aggressive",
+    "--ccp",
+    "--simplify-instructions",
+    "--eliminate-dead-code-aggressive",
+    // Everything into the entry point.
+    "--inline-entry-points-exhaustive",
+    "--eliminate-dead-functions",
+    // The cleanup: what the inlining put in memory (arguments, results,
+    // structs passed by reference) back into SSA form, once.
+    "--private-to-local",
+    "--eliminate-local-single-store",
+    "--scalar-replacement=100",
+    "--convert-local-access-chains",
+    "--eliminate-local-single-block",
+    "--eliminate-local-single-store",
+    "--ssa-rewrite",
+    "--eliminate-dead-code-aggressive",
+    "--ccp",
+    "--eliminate-dead-branches",
+    "--redundancy-elimination",
+    "--simplify-instructions",
+    "--vector-dce",
+    "--if-conversion",
+    "--eliminate-dead-code-aggressive",
+    "--merge-blocks",
+    "--simplify-instructions",
+];
 
 /// Vulkan 1.2 SPIR-V from GLSL at `level`, warnings as errors, `define` set,
 /// and each include resolved by its name through `lookup`.
