@@ -455,9 +455,10 @@ fn adk_is_made_whole_as_mdanalysis_makes_it() {
 }
 
 /// `--pbc`: the default note on stderr, `--pbc none` the file's
-/// coordinates (the scene, and so the image, of a copy of the file
-/// without its box: what every version before `--pbc` drew), and a box
-/// asked for where there is none refused in one line.
+/// coordinates (the scene and the image, byte for byte, of a copy of the
+/// file without its box: what every version before `--pbc` drew; and the
+/// image of that scene file), a box asked for where there is none refused
+/// in one line, and `--pbc` with a scene file refused in one line.
 #[test]
 fn pbc_none_keeps_the_files_coordinates_and_the_default_says_what_it_did() {
     let dir = scratch("traj-pbc");
@@ -486,6 +487,29 @@ fn pbc_none_keeps_the_files_coordinates_and_the_default_says_what_it_did() {
     assert_ne!(auto, none, "the default makes AdK whole");
     let (centred, _) = scene(&gro, "center.ron", &["--pbc", "center"]);
     assert_ne!(centred, auto);
+    // The image too: `--pbc none` renders what the GRO's coordinates
+    // rendered before --pbc existed, the boxless copy's image (no box, so
+    // no periodic code runs) and the image of its scene file, byte for
+    // byte; the default's image differs.
+    let png = |input: &str, name: &str, extra: &[&str]| -> Vec<u8> {
+        let out = dir.join(name);
+        isomarch(["render", input, "--size", "96x96", "-o", out.to_str().unwrap()]).args(extra).ok();
+        std::fs::read(out).unwrap()
+    };
+    let none_png = png(&gro, "none.png", &["--pbc", "none"]);
+    assert!(none_png == png(boxless.to_str().unwrap(), "before.png", &[]), "--pbc none's image is not the boxless GRO's");
+    let before_ron = dir.join("before.ron");
+    assert!(none_png == png(before_ron.to_str().unwrap(), "before-ron.png", &[]), "--pbc none's image is not its scene file's");
+    assert!(none_png != png(&gro, "auto.png", &[]), "the default draws AdK whole, not as the file has it");
+    // A scene file has no box: --pbc with one is refused, as the other
+    // molecule flags are, `auto` included.
+    for pbc in ["none", "auto"] {
+        let err = isomarch(["render", before_ron.to_str().unwrap(), "--pbc", pbc, "-o", dir.join("x.png").to_str().unwrap()]).fails_in_one_line();
+        assert_eq!(
+            err,
+            format!("error: --pbc applies to molecule files (.pdb, .cif, .gro, optionally .gz); {} is a scene file", before_ron.display())
+        );
+    }
     let e = isomarch(["render", &data("adk.psf"), &data("adk_dims.dcd"), "--pbc", "whole", "-o", dir.join("x.png").to_str().unwrap()])
         .fails_in_one_line();
     assert_eq!(e, format!("error: {}: frame 0: --pbc whole: the file gives no periodic box", data("adk_dims.dcd")));

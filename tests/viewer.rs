@@ -570,6 +570,20 @@ fn a_trajectory_plays_through_with_memory_that_does_not_grow() {
     assert!(played <= still + 10.0, "playing 98 frames ended at {played} MiB resident, the paused first frame at {still} MiB");
 }
 
+/// The viewer plays the frames `--interpolate` makes: AdK's 98 saved
+/// frames with one made between each two are 195, and `--every-frame
+/// --loops 1` shows each once.
+#[test]
+fn the_viewer_plays_the_frames_interpolate_makes() {
+    let x = Xvfb::start();
+    let (top, traj) = ("tests/data/trajectories/adk.psf", "tests/data/trajectories/adk_dims.dcd");
+    let out = view(&x, &[top, traj, "--interpolate", "1", "--every-frame", "--loops", "1", "--size", "48x48"]);
+    assert_eq!(assert_clean(&out, 195).0, 195, "one presented frame per frame");
+    assert_eq!(playback(&out).0, 195, "every frame, saved and interpolated, once");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("adk_dims.dcd: 195 frames (98 saved, 1 interpolated between each two)"), "{stderr}");
+}
+
 #[test]
 fn at_rest_the_viewer_accumulates_the_anti_aliased_frame_render_makes() {
     let x = Xvfb::start();

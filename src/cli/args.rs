@@ -108,14 +108,20 @@ impl MoleculeArgs {
     /// frame and framing.
     pub fn source<'a>(&self, path: &'a Path, trajectory: Option<&'a Path>, play: &PlayArgs) -> Result<Source<'a>> {
         let choices = self.choices()?;
+        let mut molecule_flags = choices.flags();
+        // A scene file has no periodic box: --pbc, even `auto`, is refused
+        // with it, as the other molecule flags are.
+        if play.pbc.is_some() {
+            molecule_flags.push("--pbc");
+        }
         Ok(Source {
             path,
             trajectory,
             molecule: choices.resolve(),
-            molecule_flags: choices.flags(),
+            molecule_flags,
             frame: play.frame,
             framing: play.framing,
-            pbc: play.pbc,
+            pbc: play.pbc.unwrap_or_default(),
             interpolate: play.interpolate,
         })
     }
@@ -137,10 +143,12 @@ pub struct PlayArgs {
     /// distance or taken from a PSF; kept from jumping between frames),
     /// also centred (the centre of the atoms drawn in the box's centre),
     /// or left as the file has them. Auto: whole where the file gives a
-    /// box (GRO, XTC, DCD with unit cells) and a molecule of the first
-    /// frame is split by it, with a note on stderr; else none.
-    #[arg(long, value_enum, default_value_t)]
-    pub pbc: Pbc,
+    /// box (GRO, XTC, DCD with unit cells, PDB CRYST1, mmCIF _cell) and a
+    /// molecule of the first frame is split by it, with a note on stderr;
+    /// else none. Molecules only: refused with a scene file [default:
+    /// auto].
+    #[arg(long, value_enum)]
+    pub pbc: Option<Pbc>,
     /// Make K frames between each pair of saved trajectory frames, the
     /// atoms' positions interpolated linearly (the short way across the
     /// periodic box): N saved frames become (N-1)(K+1)+1, and frame r lies

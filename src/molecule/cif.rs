@@ -8,7 +8,9 @@
 //! `Cartn_x/y/z`, `label_alt_id`, `auth_asym_id` (else `label_asym_id`)
 //! and `pdbx_PDB_model_num`, and what users select by: `group_PDB`, the
 //! atom and residue names and residue number (`auth_*`, else `label_*`),
-//! `label_asym_id`, `pdbx_PDB_ins_code`, `occupancy` and `B_iso_or_equiv`.
+//! `label_asym_id`, `pdbx_PDB_ins_code`, `occupancy` and `B_iso_or_equiv`;
+//! and the unit cell (`_cell.length_a/b/c`, `_cell.angle_alpha/beta/gamma`),
+//! the periodic box where it is one (as a PDB's `CRYST1`).
 
 use glam::DVec3;
 
@@ -98,6 +100,7 @@ pub fn parse_model(text: &str, file: &str, model: usize) -> Result<Molecule, Mol
     let mut extra_models = 0;
     let mut sites = 0;
     let mut blocks = 0;
+    let mut cell = [None; 6];
     let mut i = 0;
     while i < toks.len() {
         let t = &toks[i];
@@ -121,6 +124,15 @@ pub fn parse_model(text: &str, file: &str, model: usize) -> Result<Molecule, Mol
                 return Err(err(toks[i].line, format!("{} has no value", toks[i].s)));
             }
             extra_models += read_rows(&tags, &values, line, file, model, &mut sites, &mut atoms)?;
+            continue;
+        }
+        // The unit cell's six numbers, as tag-value pairs.
+        if !t.quoted
+            && let Some(k) = CELL.iter().position(|c| t.s.eq_ignore_ascii_case(c))
+            && let Some(v) = toks.get(i + 1).filter(|v| !is_keyword(v))
+        {
+            cell[k] = cell_number(v.s);
+            i += 2;
             continue;
         }
         if t.quoted || !t.s.eq_ignore_ascii_case("loop_") {
@@ -157,7 +169,22 @@ pub fn parse_model(text: &str, file: &str, model: usize) -> Result<Molecule, Mol
         }
         extra_models += read_rows(&tags, values, loop_line, file, model, &mut sites, &mut atoms)?;
     }
-    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models, sites, cell: None, bonds: Vec::new() })
+    let cell = match cell {
+        [Some(a), Some(b), Some(c), Some(alpha), Some(beta), Some(gamma)] => super::pbc::Cell::from_crystal([a, b, c], [alpha, beta, gamma]),
+        _ => None,
+    };
+    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models, sites, cell, bonds: Vec::new() })
+}
+
+/// The unit cell's tags, in the order [`super::pbc::Cell::from_crystal`]
+/// takes their values.
+const CELL: [&str; 6] = ["_cell.length_a", "_cell.length_b", "_cell.length_c", "_cell.angle_alpha", "_cell.angle_beta", "_cell.angle_gamma"];
+
+/// A cell's number: `61.45`, or `61.450(3)` with its standard
+/// uncertainty; none for `?` and `.` (unknown, not applicable).
+fn cell_number(v: &str) -> Option<f64> {
+    let v = v.split_once('(').map_or(v, |(x, _)| x);
+    if missing(v) { None } else { v.parse::<f64>().ok().filter(|x| x.is_finite()) }
 }
 
 /// The atoms of an `_atom_site` table (`tags`, and `values` row after
@@ -286,6 +313,34 @@ mod tests {
         let m = parse(&format!("{head}{rows}"), "t.cif").unwrap();
         let kept: Vec<(&str, &str)> = m.atoms.iter().map(|a| (a.resname.as_str(), a.name.as_str())).collect();
         assert_eq!(kept, [("PRO", "N"), ("PRO", "CA"), ("GLY", "N")]);
+    }
+
+    #[test]
+    fn the_cell_gives_the_box_but_not_the_placeholder_of_one_angstrom() {
+        let cell = |lengths: [&str; 3], angles: [&str; 3]| {
+            let [a, b, c] = lengths;
+            let [alpha, beta, gamma] = angles;
+            let t = format!(
+                "data_T\n_cell.entry_id T\n_cell.length_a {a}\n_cell.length_a_esd ?\n_cell.length_b {b}\n_cell.length_c {c}\n\
+                 _cell.angle_alpha {alpha}\n_cell.angle_beta {beta}\n_cell.angle_gamma {gamma}\n#\n{}ATOM N . 1.0 2.0 3.0 A 1\n",
+                &HEAD["data_TEST\n".len()..]
+            );
+            let m = parse(&t, "t.cif").unwrap();
+            assert_eq!(m.atoms.len(), 1);
+            m.cell
+        };
+        // 3KPR's cell (monoclinic), the second length with its uncertainty.
+        let box_ = cell(["223.117", "53.217(4)", "143.202"], ["90.000", "102.39", "90.000"]).expect("a box");
+        let [a, b, c] = box_.vectors();
+        let beta = 102.39f64.to_radians();
+        assert!((a - DVec3::new(223.117, 0.0, 0.0)).length() < 1e-9, "{a}");
+        assert!((b - DVec3::new(0.0, 53.217, 0.0)).length() < 1e-9, "{b}");
+        assert!((c - 143.202 * DVec3::new(beta.cos(), 0.0, beta.sin())).length() < 1e-9, "{c}");
+        // Cryo-EM entries' placeholder, a thin cell and an unknown angle
+        // are no box.
+        assert_eq!(cell(["1.000", "1.000", "1.000"], ["90.00", "90.00", "90.00"]), None);
+        assert_eq!(cell(["4.8", "30", "40"], ["90", "90", "90"]), None);
+        assert_eq!(cell(["50", "50", "50"], ["90", "?", "90"]), None);
     }
 
     #[test]

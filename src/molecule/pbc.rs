@@ -30,6 +30,13 @@ use glam::{DMat3, DVec3};
 
 use super::Atom;
 
+/// The narrowest crystal cell read as a periodic box, Å between opposite
+/// faces ([`Cell::from_crystal`]). Two atoms of neighbouring residues lie
+/// at most about 18 Å apart, so no lattice vector of such a cell brings
+/// one within bonding distance of the other; and a simulation box is at
+/// least twice its cut-off (about 10 Å) across.
+pub const CRYSTAL_MIN_WIDTH: f64 = 20.0;
+
 /// A periodic box: its three vectors, in ångström. Any triclinic box
 /// (GROMACS's rhombic dodecahedron and truncated octahedron included).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,6 +75,29 @@ impl Cell {
         let cy = c * (ca - cb * cg) / sg;
         let cz = (c * c - cx * cx - cy * cy).max(0.0).sqrt();
         Cell::new(va, vb, DVec3::new(cx, cy, cz))
+    }
+
+    /// A crystal's unit cell (a PDB's `CRYST1`, an mmCIF's `_cell`) as a
+    /// periodic box: lengths a, b, c (Å) and angles alpha, beta, gamma
+    /// (degrees). None for the placeholder of files that have no cell
+    /// (a = b = c = 1 Å, which cryo-EM and NMR entries carry; MDAnalysis
+    /// ignores it too), nor for a cell whose opposite faces are closer than
+    /// [`CRYSTAL_MIN_WIDTH`]: across a cell that thin, bonds guessed by
+    /// distance would join atoms of one residue that are not bonded, and
+    /// making molecules whole would then break a structure that was whole.
+    pub fn from_crystal(lengths: [f64; 3], angles: [f64; 3]) -> Option<Cell> {
+        if lengths == [1.0; 3] {
+            return None;
+        }
+        Cell::from_lengths_angles(lengths, angles).filter(|c| c.widths().iter().all(|&w| w >= CRYSTAL_MIN_WIDTH))
+    }
+
+    /// The distances between the box's opposite faces (across the b-c,
+    /// c-a and a-b faces), Å.
+    pub fn widths(&self) -> [f64; 3] {
+        let [a, b, c] = self.vectors();
+        let volume = self.matrix.determinant().abs();
+        [volume / b.cross(c).length(), volume / c.cross(a).length(), volume / a.cross(b).length()]
     }
 
     /// The box of a GRO file's last line: 3 numbers (a rectangular box)

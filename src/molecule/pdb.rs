@@ -7,8 +7,9 @@
 //!
 //! An empty element column falls back on the atom name, right-justified in
 //! columns 13-14 by the same convention: ` CA ` is an alpha carbon, `CA  `
-//! calcium. Every other record is ignored. Of an atom site's alternate
-//! locations, the first given is kept.
+//! calcium. `CRYST1` gives the periodic box (of the first model), where it
+//! is one ([`cryst1`]). Every other record is ignored. Of an atom site's
+//! alternate locations, the first given is kept.
 
 use glam::DVec3;
 
@@ -65,6 +66,17 @@ fn residue_number(field: &str) -> i64 {
 
 /// An optional number column (occupancy, B-factor): `default` when blank
 /// or unreadable (many files leave them out).
+/// The periodic box of a `CRYST1` record (a, b, c in columns 7-33, alpha,
+/// beta, gamma in 34-54), as [`super::pbc::Cell::from_crystal`] takes it:
+/// none for the 1 Å placeholder, a thin cell, or a record that does not
+/// hold six numbers.
+pub fn cryst1(line: &str) -> Option<super::pbc::Cell> {
+    let field = |a: usize, b: usize| cols(line, a, b)?.trim().parse::<f64>().ok().filter(|x| x.is_finite());
+    let lengths = [field(7, 15)?, field(16, 24)?, field(25, 33)?];
+    let angles = [field(34, 40)?, field(41, 47)?, field(48, 54)?];
+    super::pbc::Cell::from_crystal(lengths, angles)
+}
+
 fn optional_number(field: &str, default: f64) -> f64 {
     field.trim().parse::<f64>().ok().filter(|v| v.is_finite()).unwrap_or(default)
 }
@@ -86,10 +98,18 @@ pub fn parse_at(text: &str, file: &str, skipped: usize) -> Result<Molecule, Mole
     let cut_short = !text.is_empty() && !text.ends_with('\n');
     let count = text.lines().count();
     let mut sites = 0usize;
+    let (mut cell, mut cell_seen) = (None, false);
     for (i, line) in text.lines().enumerate() {
         let n = skipped + i + 1;
         if line.starts_with("MODEL") {
             models += 1;
+            continue;
+        }
+        // The first model's box (a file that gives one per model gives it
+        // before each MODEL).
+        if line.starts_with("CRYST1") && models <= 1 && !cell_seen {
+            cell = cryst1(line);
+            cell_seen = true;
             continue;
         }
         if models > 1 || !(line.starts_with("ATOM  ") || line.starts_with("HETATM")) {
@@ -155,7 +175,7 @@ pub fn parse_at(text: &str, file: &str, skipped: usize) -> Result<Molecule, Mole
             ..Default::default()
         });
     }
-    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models: models.saturating_sub(1), sites, cell: None, bonds: Vec::new() })
+    Ok(Molecule { source: file.into(), atoms, skipped_sites: None, extra_models: models.saturating_sub(1), sites, cell, bonds: Vec::new() })
 }
 
 #[cfg(test)]
@@ -174,6 +194,27 @@ mod tests {
         let a = &m.atoms[0];
         assert_eq!((a.name.as_str(), a.resname.as_str(), a.resid, a.icode.as_str()), ("CG", "LYS", 158, ""));
         assert_eq!((a.occupancy, a.beta, a.hetero), (1.0, 26.02, false));
+    }
+
+    #[test]
+    fn cryst1_gives_the_box_but_not_the_placeholder_of_one_angstrom() {
+        // 1TII's cell: hexagonal, gamma 120.
+        let t = format!("CRYST1  105.700  105.700  171.600  90.00  90.00 120.00 P 31 2 1     30          \n{A}");
+        let cell = parse(&t, "t.pdb").unwrap().cell.expect("a box");
+        let [a, b, c] = cell.vectors();
+        assert!((a - DVec3::new(105.7, 0.0, 0.0)).length() < 1e-9, "{a}");
+        assert!((b - DVec3::new(-52.85, 105.7 * 3f64.sqrt() / 2.0, 0.0)).length() < 1e-9, "{b}");
+        assert!((c - DVec3::new(0.0, 0.0, 171.6)).length() < 1e-9, "{c}");
+        // Cryo-EM and NMR entries' placeholder, a thin cell and a record
+        // cut short are no box.
+        for line in [
+            "CRYST1    1.000    1.000    1.000  90.00  90.00  90.00 P 1           1          ",
+            "CRYST1    4.800   30.000   40.000  90.00  90.00  90.00 P 1           1          ",
+            "CRYST1  105.700  105.700  171.600  90.00",
+        ] {
+            assert_eq!(parse(&format!("{line}\n{A}"), "t.pdb").unwrap().cell, None, "{line}");
+        }
+        assert_eq!(parse(A, "t.pdb").unwrap().cell, None, "no CRYST1");
     }
 
     #[test]

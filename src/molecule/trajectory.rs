@@ -414,12 +414,15 @@ struct TextFrames {
     reader: Option<(Box<dyn BufRead + Send>, usize, usize)>,
     /// A line read ahead (PDB: the next `MODEL`).
     pending: Option<String>,
+    /// PDB: the box of the last `CRYST1` read, for the models after it
+    /// that give none of their own (a file that gives it once, on top).
+    cryst1: Option<Cell>,
 }
 
 impl TextFrames {
     fn open(path: &Path, format: Format) -> Result<TextFrames, MoleculeError> {
         let file = path.display().to_string();
-        let mut t = TextFrames { path: path.into(), file, format, count: 0, reader: None, pending: None };
+        let mut t = TextFrames { path: path.into(), file, format, count: 0, reader: None, pending: None, cryst1: None };
         t.count = match format {
             Format::Cif => {
                 let m = super::read(path)?;
@@ -468,6 +471,7 @@ impl TextFrames {
         if self.reader.as_ref().is_none_or(|r| r.1 > k) {
             self.reader = Some((open_text(&self.path, &self.file)?, 0, 0));
             self.pending = None;
+            self.cryst1 = None;
         }
         loop {
             let next = self.reader.as_ref().map_or(0, |r| r.1);
@@ -476,6 +480,11 @@ impl TextFrames {
                 _ => self.pdb_model()?,
             };
             let Some(chunk) = chunk else { return Ok(None) };
+            if self.format == Format::Pdb
+                && let Some(line) = chunk.0.lines().find(|l| l.starts_with("CRYST1"))
+            {
+                self.cryst1 = super::pdb::cryst1(line);
+            }
             if let Some(r) = self.reader.as_mut() {
                 r.1 += 1;
             }
@@ -560,7 +569,8 @@ impl Frames for TextFrames {
         for a in &m.atoms {
             positions[a.site] = a.position;
         }
-        Ok(Frame { index, time_ps, positions, cell: m.cell })
+        let cell = if self.format == Format::Pdb { self.cryst1 } else { m.cell };
+        Ok(Frame { index, time_ps, positions, cell })
     }
 }
 
