@@ -512,10 +512,11 @@ struct Opened {
 }
 
 impl Opened {
-    fn stager(&self) -> anyhow::Result<isomarch::molecule::playback::Stager> {
-        let (mut t, _) = isomarch::molecule::trajectory::open_with(&self.topology, self.trajectory.as_deref(), self.pbc)?;
+    /// A stager of the trajectory, and the note of what `--pbc` did.
+    fn stager(&self) -> anyhow::Result<(isomarch::molecule::playback::Stager, Option<String>)> {
+        let (mut t, pbc_note) = isomarch::molecule::trajectory::open_with(&self.topology, self.trajectory.as_deref(), self.pbc)?;
         t.set_interpolate(self.interpolate);
-        isomarch::molecule::playback::Stager::new(t, self.options.clone(), self.rule)
+        Ok((isomarch::molecule::playback::Stager::new(t, self.options.clone(), self.rule)?, pbc_note))
     }
 }
 
@@ -583,7 +584,7 @@ impl NativeTrajectory {
         let prefetch = py
             .detach(|| -> anyhow::Result<_> {
                 use isomarch::molecule::playback::{Order, Prefetch};
-                Prefetch::spawn(opened.stager()?, Order::List(frames), 2)
+                Prefetch::spawn(opened.stager()?.0, Order::List(frames), 2)
             })
             .map_err(raise)?;
         Ok(NativeFrames { prefetch: std::sync::Mutex::new(prefetch) })
@@ -608,14 +609,10 @@ fn trajectory_open(
     pbc: Choice<isomarch::molecule::pbc::Pbc>,
     interpolate: usize,
 ) -> PyResult<(NativeTrajectory, Vec<String>, String)> {
-    use isomarch::molecule::playback::Stager;
-    let (o, rule, pbc) = (options.options.clone(), framing.0, pbc.0);
-    let opened = Opened { topology: topology.clone(), trajectory: trajectory.clone(), options: o.clone(), rule, pbc, interpolate };
+    let opened = Opened { topology, trajectory, options: options.options.clone(), rule: framing.0, pbc: pbc.0, interpolate };
     let (stager, mut notes, pbc_note) = py
         .detach(|| -> anyhow::Result<_> {
-            let (mut t, pbc_note) = isomarch::molecule::trajectory::open_with(&topology, trajectory.as_deref(), pbc)?;
-            t.set_interpolate(interpolate);
-            let mut stager = Stager::new(t, o, rule)?;
+            let (mut stager, pbc_note) = opened.stager()?;
             let (_, _, notes) = stager.text(0)?;
             Ok((stager, notes, pbc_note))
         })

@@ -69,7 +69,8 @@ pub struct App {
     error: Option<anyhow::Error>,
     controls: Controls,
     canvas: Canvas,
-    /// Previews made whole on the GPU ([`App::gpu_preview`]).
+    /// Frames made whole on the GPU ([`App::gpu_frame`]): previews and
+    /// resting frames.
     gpu_frames: u64,
     /// Presents of an image on the GPU, and whether the last was one.
     gpu_presents: (u64, bool),
@@ -294,7 +295,7 @@ impl App {
         let rgba = gpu.renderer.read_frame_image((small.0 * small.1) as usize)?;
         let rgb: Vec<u8> = rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
         let size = gpu.presenter.extent();
-        // No steps: the heatmap marches on the host (gpu_preview).
+        // No steps: the heatmap marches on the host (gpu_frame).
         self.canvas.upscale(small, &rgb, &vec![0; (small.0 * small.1) as usize], size);
         Ok(())
     }
@@ -375,7 +376,7 @@ impl App {
     /// applies and the steps heatmap is not shown (it needs every ray's
     /// steps): its steps per ray, shadows and occlusion included where the
     /// scene asks, as `render` makes them.
-    fn gpu_preview(&mut self, scene: &Scene, size: (u32, u32), samples: u32) -> Result<Option<f64>> {
+    fn gpu_frame(&mut self, scene: &Scene, size: (u32, u32), samples: u32) -> Result<Option<f64>> {
         let Some(gpu) = self.gpu.as_mut() else { return Ok(None) };
         let options = MarchOptions::for_scene(scene);
         if self.controls.heatmap || !gpu.renderer.gpu_frame_applies(&options, scene, size) {
@@ -416,7 +417,7 @@ impl App {
         }
         let scene = self.posed(size);
         let started = Instant::now();
-        let Some(steps_per_ray) = self.gpu_preview(&scene, size, samples)? else { return Ok(false) };
+        let Some(steps_per_ray) = self.gpu_frame(&scene, size, samples)? else { return Ok(false) };
         let schedule = &mut self.schedule;
         schedule.frame_ms = started.elapsed().as_secs_f64() * 1e3;
         schedule.steps_per_ray = steps_per_ray;
@@ -436,7 +437,7 @@ impl App {
         let small = (size.0.div_ceil(divisor).max(1), size.1.div_ceil(divisor).max(1));
         let scene = self.posed(small);
         let started = Instant::now();
-        if let Some(steps_per_ray) = self.gpu_preview(&scene, small, 1)? {
+        if let Some(steps_per_ray) = self.gpu_frame(&scene, small, 1)? {
             let schedule = &mut self.schedule;
             schedule.frame_ms = started.elapsed().as_secs_f64() * 1e3;
             schedule.steps_per_ray = steps_per_ray;

@@ -100,8 +100,8 @@ pub struct PlaybackStats {
 pub struct ViewSummary {
     pub presented: u64,
     pub full_frames: u64,
-    /// Previews made whole on the GPU (render::frame) and left there; the
-    /// rest were marched ray by ray with the host's look.
+    /// Frames (previews and resting frames) made whole on the GPU
+    /// (render::frame) and left there; the rest were marched ray by ray.
     pub gpu_frames: u64,
     /// Presents that took an image on the GPU (nothing uploaded); the rest
     /// uploaded the host's pixels.
