@@ -8,7 +8,9 @@ use ash::vk;
 
 #[test]
 fn validation_canary_catches_a_dispatch_without_a_pipeline() {
-    let ctx = gpu();
+    // Its own device: the message it provokes would fail the tests
+    // sharing `gpu()`.
+    let ctx = own_gpu();
     assert!(ctx.validation_enabled());
     let d = &ctx.device;
     // SAFETY: a deliberate misuse, recorded but never submitted.

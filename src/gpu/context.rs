@@ -98,6 +98,11 @@ pub struct Context {
     /// shared by every `gpu::ComputePipeline` of the same recipe, and
     /// destroyed with the device.
     pipelines: Mutex<HashMap<PipelineRecipe, SharedPipeline>>,
+    /// Held around every use of `queue` that Vulkan requires to be
+    /// externally synchronised (submits, presents, waiting for it idle), so
+    /// that threads sharing the context (the tests' one device, a window
+    /// beside a renderer) may submit at once.
+    queue_lock: Mutex<()>,
 }
 
 /// What a compute pipeline is made from: its SPIR-V (by a hash of the
@@ -164,8 +169,12 @@ unsafe extern "system" fn debug_callback(
             if (*data).p_message.is_null() { String::from("(no message)") } else { CStr::from_ptr((*data).p_message).to_string_lossy().into_owned() };
         (sink, message)
     };
+    // The layer calls back on the thread that made the offending call:
+    // its name (a test's, where tests share one device) says whose it was.
+    let thread = std::thread::current();
+    let who = thread.name().unwrap_or("unnamed thread");
     if let Ok(mut messages) = sink.lock() {
-        messages.push(format!("{severity:?}: {message}"));
+        messages.push(format!("{severity:?} (on {who}): {message}"));
     }
     vk::FALSE
 }
@@ -368,6 +377,7 @@ impl Context {
             pipeline_cache,
             cache_path,
             pipelines: Mutex::new(HashMap::new()),
+            queue_lock: Mutex::new(()),
         }))
     }
 
@@ -422,6 +432,14 @@ impl Context {
     /// The Vulkan loader's entry points (surface creation needs them).
     pub fn entry(&self) -> &ash::Entry {
         &self.entry
+    }
+
+    /// The queue, for as long as the guard lives: take it around every
+    /// `vkQueueSubmit`, `vkQueuePresentKHR` and `vkQueueWaitIdle`, which
+    /// Vulkan requires to be externally synchronised per queue.
+    pub fn lock_queue(&self) -> std::sync::MutexGuard<'_, ()> {
+        // A panic while submitting leaves nothing half-made in `()`.
+        self.queue_lock.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// Whether the validation layer is active.

@@ -328,6 +328,8 @@ impl Presenter {
             let cmds = [self.cmd];
             let submit =
                 vk::SubmitInfo::default().wait_semaphores(&waits).wait_dst_stage_mask(&stages).command_buffers(&cmds).signal_semaphores(&signals);
+            // The copy and the present go to the queue together.
+            let _queue = self.ctx.lock_queue();
             d.queue_submit(self.ctx.queue, &[submit], self.fence).context("submitting the copy to the window")?;
             let swapchains = [self.swapchain];
             let indices = [index];
@@ -352,7 +354,10 @@ impl Drop for Presenter {
         unsafe {
             let deadline = Instant::now() + self.timeout;
             let _ = d.wait_for_fences(&[self.fence], true, deadline.saturating_duration_since(Instant::now()).as_nanos() as u64);
-            let _ = d.queue_wait_idle(self.ctx.queue);
+            {
+                let _queue = self.ctx.lock_queue();
+                let _ = d.queue_wait_idle(self.ctx.queue);
+            }
             self.window = None;
             self.upload = None;
             for s in self.copied.drain(..) {

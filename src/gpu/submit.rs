@@ -138,7 +138,10 @@ impl Submitter {
             d.reset_fences(&[self.fence]).map_err(|e| map_vk(e, "resetting a fence"))?;
             let cmds = [cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
-            d.queue_submit(self.ctx.queue, &submit, self.fence).map_err(|e| map_vk(e, "submitting work"))?;
+            {
+                let _queue = self.ctx.lock_queue();
+                d.queue_submit(self.ctx.queue, &submit, self.fence).map_err(|e| map_vk(e, "submitting work"))?;
+            }
 
             let remaining = deadline.saturating_duration_since(Instant::now());
             match d.wait_for_fences(&[self.fence], true, remaining.as_nanos().min(u64::MAX as u128) as u64) {

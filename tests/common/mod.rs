@@ -4,7 +4,7 @@
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use glam::DVec3;
 use isomarch::Method;
@@ -13,8 +13,20 @@ use isomarch::scene::{Aabb, Camera, Kernel, Light, Marching, Primitive, Scene};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-/// The GPU with validation on. Fails (never skips) when Vulkan is missing.
+/// The GPU with validation on, one for the whole test binary: every test
+/// shares its device and so its pipelines (made once per recipe, where
+/// each test's own device made them again: most of the binary's time on
+/// lavapipe went to making pipelines, in the driver and the validation
+/// layer). Fails (never skips) when Vulkan is missing.
 pub fn gpu() -> Arc<Context> {
+    static SHARED: OnceLock<Arc<Context>> = OnceLock::new();
+    Arc::clone(SHARED.get_or_init(own_gpu))
+}
+
+/// A device of the test's own, with validation on: for a test that
+/// provokes validation messages on purpose, which would fail every test
+/// sharing [`gpu`] after it.
+pub fn own_gpu() -> Arc<Context> {
     match Context::new(&ContextOptions { validation: true, ..Default::default() }) {
         Ok(ctx) => ctx,
         Err(e) => {
@@ -23,7 +35,9 @@ pub fn gpu() -> Arc<Context> {
     }
 }
 
-/// Fails the test on any validation message.
+/// Fails the test on any validation message. On the shared device a
+/// message may be another test's: each names the thread (the test) whose
+/// call the layer caught.
 pub fn assert_no_validation(ctx: &Context) {
     let messages = ctx.validation_messages();
     assert!(messages.is_empty(), "validation messages:\n{}", messages.join("\n"));
