@@ -12,9 +12,10 @@ cd "$ISOMARCH_ROOT"
 # where a suite's minutes went, from its log alone (docs/testing.md).
 suite_started=$SECONDS
 timed() {
-    local started=$SECONDS
-    "$@"
-    echo "isomarch: $* took $((SECONDS - started)) s" >&2
+    local started=$SECONDS rc=0
+    "$@" || rc=$?
+    echo "isomarch: $* took $((SECONDS - started)) s$([ $rc = 0 ] || echo ", failed ($rc)")" >&2
+    return $rc
 }
 # Formatting and lints first (rustfmt.toml; allowed lints are justified in
 # Cargo.toml's [lints] or where they are allowed). Clippy checks the
@@ -32,7 +33,35 @@ timed cargo clippy --workspace --release --locked --all-targets -- -D warnings
 timed cargo test --release --locked -p isomarch-shaders
 # The build apart from the runs, so that the log says which took the time.
 timed cargo test --release --locked --no-run "$@"
-timed cargo test --release --locked "$@"
-# The Python package (python/): built into a venv, its pytest suite.
-timed bash scripts/python-test.sh
+if [ $# -gt 0 ]; then
+    timed cargo test --release --locked "$@"
+    # The Python package (python/): built into a venv, its pytest suite.
+    timed bash scripts/python-test.sh
+else
+    # The integration binary keeps both cores busy for minutes; the
+    # window's tests (mostly waiting on Xvfb), the cluster's (waiting on
+    # slurmd) and the Python package (a wheel, then pytest) run beside it,
+    # in that order, their output kept in a log printed after it. Every
+    # test runs as before; only the waiting overlaps.
+    beside_log="$CARGO_TARGET_DIR/test-beside.log"
+    (
+        rc=0
+        timed cargo test --release --locked --test viewer --test slurm || rc=1
+        # The Python package (python/): built into a venv, its pytest suite.
+        timed bash scripts/python-test.sh || rc=1
+        exit $rc
+    ) >"$beside_log" 2>&1 &
+    beside=$!
+    failed=0
+    timed cargo test --release --locked --lib --bins --test tests || failed=1
+    timed cargo test --release --locked --doc || failed=1
+    beside_started=$SECONDS
+    wait "$beside" || failed=1
+    echo "isomarch: the window's, the cluster's and the Python tests, run beside (waited $((SECONDS - beside_started)) s more for them):" >&2
+    cat "$beside_log" >&2
+    if [ $failed != 0 ]; then
+        echo "isomarch: the suite failed (see above)" >&2
+        exit 1
+    fi
+fi
 echo "isomarch: the whole suite took $((SECONDS - suite_started)) s" >&2
