@@ -16,5 +16,5 @@ fi
 # The package itself, the way the README installs it (no build isolation:
 # the venv's maturin, and no download per build).
 "$venv/bin/pip" install -q --disable-pip-version-check --no-build-isolation ./python
-cargo build --release --locked -p isomarch --bin isomarch
+cargo build --release --locked -p isomarch-cli --bin isomarch
 ISOMARCH_BIN="$CARGO_TARGET_DIR/release/isomarch" "$venv/bin/python" -m pytest -q python/tests "$@"

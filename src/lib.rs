@@ -31,8 +31,6 @@ pub mod stats;
 pub mod tradeoff;
 /// The compute kernels and where their SPIR-V is kept (`isomarch-shaders`).
 pub use isomarch_shaders as shaders;
-#[cfg(feature = "window")]
-pub mod view;
 
 /// Why `isomarch view` refuses in a build without the `window` feature,
 /// and what builds it.

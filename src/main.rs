@@ -4,6 +4,8 @@
 //! batch was interrupted.
 
 mod cli;
+#[cfg(feature = "window")]
+mod view;
 
 use std::process::ExitCode;
 

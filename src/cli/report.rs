@@ -1,10 +1,10 @@
 //! The lines a command prints about what it did.
 
+#[cfg(feature = "window")]
+use crate::view::ViewSummary;
 use isomarch::method::Method;
 use isomarch::render::offscreen::{RenderJob, RenderStats};
 use isomarch::scene::Scene;
-#[cfg(feature = "window")]
-use isomarch::view::ViewSummary;
 
 /// Lines on stderr where the image will not be what the flags suggest:
 /// the method chosen is known to be slow on the scene (so that a

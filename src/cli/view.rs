@@ -7,7 +7,10 @@ use clap::Args;
 
 use isomarch::checks;
 #[cfg(feature = "window")]
-use isomarch::{open::Input, output::FileFormat, view::ViewOptions};
+use isomarch::{open::Input, output::FileFormat};
+
+#[cfg(feature = "window")]
+use crate::view::ViewOptions;
 
 use super::args::{PlayArgs, SceneFlags};
 #[cfg(feature = "window")]
@@ -88,7 +91,7 @@ impl TryFrom<ViewArgs> for ViewOptions {
             Input::Frames(mut stager) => {
                 let start = args.play.frame.unwrap_or(0);
                 let (scene, _) = stager.scene(start)?;
-                (scene, Some(isomarch::view::Playback { stager, start, every_frame: args.every_frame, loops: args.loops }))
+                (scene, Some(crate::view::Playback { stager, start, every_frame: args.every_frame, loops: args.loops }))
             }
         };
         let fps = checks::fps(args.fps)?;
@@ -128,7 +131,7 @@ pub fn run(_args: ViewArgs) -> Result<()> {
 pub fn run(args: ViewArgs) -> Result<()> {
     let options = ViewOptions::try_from(args)?;
     method_note(&options.scene, options.method);
-    let s = isomarch::view::run(options)?;
+    let s = crate::view::run(options)?;
     report::view(&s);
     // No context: the window closed before the device was opened.
     s.ctx.as_deref().map_or(Ok(()), finish)

@@ -236,15 +236,10 @@ fn create_instance(entry: &ash::Entry, validation: bool, present: Option<raw_win
         vk::ApplicationInfo::default().application_name(&app_name).application_version(1).engine_name(&app_name).api_version(vk::API_VERSION_1_2);
     let mut layers = Vec::new();
     let mut extensions = Vec::new();
-    #[cfg(feature = "window")]
     if let Some(display) = present {
         let needed =
             ash_window::enumerate_required_extensions(display).context("this display has no Vulkan surface extension (is it X11 or Wayland?)")?;
         extensions.extend_from_slice(needed);
-    }
-    #[cfg(not(feature = "window"))]
-    if present.is_some() {
-        anyhow::bail!("{}", crate::WITHOUT_WINDOW);
     }
     if validation {
         // SAFETY: plain enumeration.

@@ -4,7 +4,6 @@
 mod buffer;
 mod context;
 mod pipeline;
-#[cfg(feature = "window")]
 mod present;
 pub mod scale;
 mod submit;
@@ -13,7 +12,6 @@ mod transfer;
 pub use buffer::{Buffer, Role};
 pub use context::{Context, ContextOptions, DeviceInfo, list_devices};
 pub use pipeline::{ComputePipeline, bind_compute};
-#[cfg(feature = "window")]
 pub use present::{Presented, Presenter};
 pub use submit::{GpuError, Submitter};
 pub use transfer::{Fetch, TransferStats, Transfers, memory_barrier};

@@ -19,17 +19,17 @@ use super::player::{PREFETCH_DEPTH, Player};
 use super::schedule::{Phase, Schedule, Work, after_pass, after_preview, next_work};
 use super::title::Title;
 use super::{PlaybackStats, ViewOptions, ViewSummary};
-use crate::gpu::{Context, ContextOptions, Presented, Presenter};
-use crate::layout::GpuRay;
-use crate::method::Method;
-use crate::molecule::playback::{Order, Prefetch};
-use crate::output::{self, LEGEND_HEIGHT};
-use crate::render::frame::Readback;
-use crate::render::offscreen::{Effects, SAMPLE_SEED};
-use crate::render::offscreen::{march_camera_frame, pixel_stats};
-use crate::render::rays::{PIXEL_TILE, camera_rays, camera_rays_through, subpixel};
-use crate::render::{MarchOptions, Renderer};
-use crate::scene::Scene;
+use isomarch::gpu::{Context, ContextOptions, Presented, Presenter};
+use isomarch::layout::GpuRay;
+use isomarch::method::Method;
+use isomarch::molecule::playback::{Order, Prefetch};
+use isomarch::output::{self, LEGEND_HEIGHT};
+use isomarch::render::frame::Readback;
+use isomarch::render::offscreen::{Effects, SAMPLE_SEED};
+use isomarch::render::offscreen::{march_camera_frame, pixel_stats};
+use isomarch::render::rays::{PIXEL_TILE, camera_rays, camera_rays_through, subpixel};
+use isomarch::render::{MarchOptions, Renderer};
+use isomarch::scene::Scene;
 
 /// How long a frame at rest may hold the window when made whole on the GPU
 /// in one submission (a window at rest answers its input after it); a
@@ -355,7 +355,7 @@ impl App {
     /// ray `first` on (whole tiles), updating the measured wall cost per
     /// ray. Camera rays take their candidates as `render`'s do (the tile
     /// lists where they apply).
-    fn march(&mut self, scene: &Scene, size: (u32, u32), rays: &[GpuRay], first: usize) -> Result<crate::render::MarchOutput> {
+    fn march(&mut self, scene: &Scene, size: (u32, u32), rays: &[GpuRay], first: usize) -> Result<isomarch::render::MarchOutput> {
         let gpu = self.gpu.as_mut().ok_or_else(|| anyhow!("no window"))?;
         gpu.renderer.set_scene(scene)?;
         let t = Instant::now();

@@ -4,8 +4,8 @@
 //! a frame made on the GPU, presented from there and read back only when
 //! the host needs its pixels (a screenshot, tiles marched over it).
 
-use crate::gpu::scale::nearest;
-use crate::output;
+use isomarch::gpu::scale::nearest;
+use isomarch::output;
 
 /// The window's pixels.
 #[derive(Debug, Default)]
@@ -53,7 +53,7 @@ impl Canvas {
         self.on_gpu = None;
         self.rgb = vec![0; (w * h * 3) as usize];
         self.steps = vec![0; (w * h) as usize];
-        // The pixels present.comp shows (crate::gpu::scale).
+        // The pixels present.comp shows (isomarch::gpu::scale).
         for y in 0..h {
             let sy = nearest(y, small.1, h);
             for x in 0..w {
@@ -119,15 +119,15 @@ mod tests {
         c.upscale((1, 1), &[0, 0, 0], &[0], (1, 1));
         c.restart_mean(1);
         c.put(0, [1.0, 0.0, 0.5], 4, Some(0));
-        assert_eq!(&c.rgb[..], &[255, 0, crate::output::srgb(0.5)]);
+        assert_eq!(&c.rgb[..], &[255, 0, isomarch::output::srgb(0.5)]);
         c.put(0, [0.0, 0.0, 0.5], 6, Some(1));
         // The mean of 1 and 0 is 0.5 in linear light, not in sRGB.
-        assert_eq!(&c.rgb[..], &[crate::output::srgb(0.5), 0, crate::output::srgb(0.5)]);
+        assert_eq!(&c.rgb[..], &[isomarch::output::srgb(0.5), 0, isomarch::output::srgb(0.5)]);
         assert_eq!(c.steps[0], 6);
         c.put(0, [0.0, 0.0, 0.0], 2, Some(2));
-        assert_eq!(c.rgb[0], crate::output::srgb(1.0 / 3.0));
+        assert_eq!(c.rgb[0], isomarch::output::srgb(1.0 / 3.0));
         // Through the centre: shown as is, the mean untouched.
         c.put(0, [0.25, 0.25, 0.25], 1, None);
-        assert_eq!(c.rgb[0], crate::output::srgb(0.25));
+        assert_eq!(c.rgb[0], isomarch::output::srgb(0.25));
     }
 }

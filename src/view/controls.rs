@@ -8,8 +8,8 @@ use glam::{DQuat, DVec3};
 use winit::keyboard::{Key, NamedKey};
 
 use super::ViewOptions;
-use crate::method::Method;
-use crate::scene::{Projection, Scene};
+use isomarch::method::Method;
+use isomarch::scene::{Projection, Scene};
 
 /// What a key asks for.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -118,7 +118,7 @@ impl Controls {
         Controls {
             method: options.method,
             transparency: options.scene.transparency.is_some(),
-            invertible: crate::field::inversion::Inversion::of_field(&crate::field::Field::new(&options.scene)).is_ok(),
+            invertible: isomarch::field::inversion::Inversion::of_field(&isomarch::field::Field::new(&options.scene)).is_ok(),
             heatmap: false,
             drag: None,
             cursor: (0.0, 0.0),
@@ -194,11 +194,11 @@ mod tests {
     use winit::keyboard::{Key, NamedKey, SmolStr};
 
     use super::{Control, Orbit};
-    use crate::scene::Projection;
+    use isomarch::scene::Projection;
 
     #[test]
     fn the_wheel_zooms_an_orthographic_view_by_its_height() {
-        let mut scene = crate::scene::Scene::parse(
+        let mut scene = isomarch::scene::Scene::parse(
             "Scene(camera: (eye: (0.0, 0.0, 10.0), target: (0.0, 0.0, 0.0), projection: Orthographic(height: 4.0)), iso: 0.5, \
              groups: [(primitives: [Point(center: (0.0, 0.0, 0.0), kernel: Compact(radius: 1.0))])])",
             "t",

@@ -30,10 +30,10 @@ use std::time::Duration;
 use anyhow::{Context as _, Result, anyhow};
 use winit::event_loop::EventLoop;
 
-use crate::gpu::Context;
-use crate::method::Method;
-use crate::molecule::playback::Stager;
-use crate::scene::Scene;
+use isomarch::gpu::Context;
+use isomarch::method::Method;
+use isomarch::molecule::playback::Stager;
+use isomarch::scene::Scene;
 
 /// How to open the viewer.
 #[derive(Debug)]

@@ -4,8 +4,8 @@
 use anyhow::Result;
 
 use super::PlaybackStats;
-use crate::molecule::playback::{Order, Prefetch};
-use crate::scene::Scene;
+use isomarch::molecule::playback::{Order, Prefetch};
+use isomarch::scene::Scene;
 
 /// How many decoded frames wait ready for the viewer.
 pub const PREFETCH_DEPTH: usize = 3;

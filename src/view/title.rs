@@ -2,7 +2,7 @@
 
 use std::fmt;
 
-use crate::method::Method;
+use isomarch::method::Method;
 
 /// Everything the title says.
 pub struct Title<'a> {
@@ -44,7 +44,7 @@ impl fmt::Display for Title<'_> {
         if let Some((frame, len, time_ps)) = self.frame {
             write!(f, " | frame {frame}/{len}")?;
             if let Some(t) = time_ps {
-                write!(f, " ({} ps)", crate::molecule::trajectory::ps(t))?;
+                write!(f, " ({} ps)", isomarch::molecule::trajectory::ps(t))?;
             }
         }
         if self.speed != 1.0 {
@@ -69,7 +69,7 @@ impl fmt::Display for Title<'_> {
 #[cfg(test)]
 mod tests {
     use super::Title;
-    use crate::method::Method;
+    use isomarch::method::Method;
 
     #[test]
     fn the_title_names_what_is_shown() {
