@@ -17,18 +17,24 @@ timed() {
     echo "isomarch: $* took $((SECONDS - started)) s$([ $rc = 0 ] || echo ", failed ($rc)")" >&2
     return $rc
 }
-# Formatting and lints first (rustfmt.toml; allowed lints are justified in
-# Cargo.toml's [lints] or where they are allowed). Clippy checks the
-# release profile, whose build-script outputs (shaderc's) the tests share.
+# Formatting first (rustfmt.toml), then lints (allowed lints are justified
+# in Cargo.toml's [workspace.lints] or where they are allowed). Clippy
+# checks the release profile, whose build-script outputs (shaderc's) the
+# tests share.
 timed cargo fmt --all --check
 # The Python crate's pyo3 reads the interpreter's configuration from the
 # file that maturin writes (scripts/python-test.sh). Clippy given the same
-# file agrees with maturin's last run of pyo3's build script, so a second
-# run of this script compiles nothing (without it the two would each
-# rebuild pyo3 after the other).
-maturin_config=$(ls "$CARGO_TARGET_DIR"/maturin/pyo3-config-*.txt 2>/dev/null | head -n 1 || true)
-if [ -n "$maturin_config" ]; then export PYO3_CONFIG_FILE="$maturin_config"; fi
-timed cargo clippy --workspace --release --locked --all-targets -- -D warnings
+# file agrees with maturin's run of pyo3's build script; without it the
+# two would each rebuild pyo3 after the other. So clippy runs once the
+# wheel was built: after the Python package here when run with arguments,
+# and beside the integration binary after it otherwise, so that even a
+# first run leaves nothing to compile for the next.
+clippy() {
+    local maturin_config
+    maturin_config=$(ls "$CARGO_TARGET_DIR"/maturin/pyo3-config-*.txt 2>/dev/null | head -n 1 || true)
+    if [ -n "$maturin_config" ]; then export PYO3_CONFIG_FILE="$maturin_config"; fi
+    timed cargo clippy --workspace --release --locked --all-targets -- -D warnings
+}
 # One profile (release) for tests and runs: shaderc is built once.
 timed cargo test --release --locked -p isomarch-shaders
 # The build apart from the runs, so that the log says which took the time.
@@ -37,18 +43,20 @@ if [ $# -gt 0 ]; then
     timed cargo test --release --locked "$@"
     # The Python package (python/): built into a venv, its pytest suite.
     timed bash scripts/python-test.sh
+    clippy
 else
     # The integration binary keeps both cores busy for minutes; the
     # window's tests (mostly waiting on Xvfb), the cluster's (waiting on
-    # slurmd) and the Python package (a wheel, then pytest) run beside it,
-    # in that order, their output kept in a log printed after it. Every
-    # test runs as before; only the waiting overlaps.
+    # slurmd), the Python package (a wheel, then pytest) and clippy run
+    # beside it, in that order, their output kept in a log printed after
+    # it. Every test runs as before; only the waiting overlaps.
     beside_log="$CARGO_TARGET_DIR/test-beside.log"
     (
         rc=0
         timed cargo test --release --locked --test viewer --test slurm || rc=1
         # The Python package (python/): built into a venv, its pytest suite.
         timed bash scripts/python-test.sh || rc=1
+        clippy || rc=1
         exit $rc
     ) >"$beside_log" 2>&1 &
     beside=$!
@@ -57,7 +65,7 @@ else
     timed cargo test --release --locked --doc || failed=1
     beside_started=$SECONDS
     wait "$beside" || failed=1
-    echo "isomarch: the window's, the cluster's and the Python tests, run beside (waited $((SECONDS - beside_started)) s more for them):" >&2
+    echo "isomarch: the window's, the cluster's and the Python tests and clippy, run beside (waited $((SECONDS - beside_started)) s more for them):" >&2
     cat "$beside_log" >&2
     if [ $failed != 0 ]; then
         echo "isomarch: the suite failed (see above)" >&2
