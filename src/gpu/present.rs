@@ -210,7 +210,9 @@ impl Presenter {
             if old != vk::SwapchainKHR::null() {
                 // Presents queued on the old swapchain may still use its
                 // semaphores: wait for the queue before reusing them.
+                let queue = self.ctx.lock_queue();
                 self.ctx.device.queue_wait_idle(self.ctx.queue)?;
+                drop(queue);
                 self.swapchain_loader.destroy_swapchain(old, None);
             }
             self.swapchain = swapchain;
