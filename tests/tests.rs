@@ -34,6 +34,7 @@ mod scaling;
 mod scene_files;
 mod scene_input;
 mod selections;
+mod specialise;
 mod tile_build;
 mod trajectories;
 mod view_flags;

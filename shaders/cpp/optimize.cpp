@@ -17,7 +17,7 @@ extern "C" {
 // the optimizer's messages to `report(context, text)`. Returns 0 on
 // success, 1 for a flag the optimizer does not know, 2 when a pass or the
 // validator fails, 3 for an exception.
-int isomarch_spirv_optimize(const uint32_t* words, size_t count, const char* const* flags, size_t flag_count, void* context,
+int isomarch_spirv_optimize(const uint32_t* words, size_t count, const char* const* flags, size_t flag_count, int validate, void* context,
                             void (*sink)(void*, const uint32_t*, size_t), void (*report)(void*, const char*)) {
     try {
         spvtools::Optimizer optimizer(SPV_ENV_VULKAN_1_2);
@@ -31,7 +31,9 @@ int isomarch_spirv_optimize(const uint32_t* words, size_t count, const char* con
             return 1;
         }
         std::vector<uint32_t> result;
-        if (!optimizer.Run(words, count, &result)) {
+        spvtools::OptimizerOptions options;
+        options.set_run_validator(validate != 0);
+        if (!optimizer.Run(words, count, &result, options)) {
             return 2;
         }
         sink(context, result.data(), result.size());

@@ -12,6 +12,11 @@
 //! marching kernel on 2 cores, and there are eleven kernels (five of them
 //! marching).
 //!
+//! [`specialise`] applies a pipeline's specialisation constants to a
+//! kernel on the host and removes the code they rule out (kept in the
+//! cache too), so that drivers and the validation layer read only what
+//! the pipeline runs.
+//!
 //! `ISOMARCH_SHADER_OPT=performance` optimises with shaderc's performance
 //! passes instead (`spirv-opt -O`: the same images, about twice the
 //! time), `zero` not at all (under a second a kernel, but lavapipe then
@@ -187,17 +192,64 @@ fn load_or_compile(k: &KernelSource) -> Result<Vec<u32>, String> {
         return Ok(words);
     }
     let words = compile(k, opt, Some(&dir))?;
-    // Written under a temporary name, then renamed: a reader never sees
-    // half a file.
-    let tmp = dir.join(format!(".{}.{}.tmp", k.name, std::process::id()));
+    write_spirv(&path, &words);
+    Ok(words)
+}
+
+/// `words` with its specialisation constants `(constant_id, value)` made
+/// constants and the code they rule out removed (`options::SPECIALISE`),
+/// or `None` where this build has no runner for spirv-opt's passes (the
+/// caller then hands the values to the driver). The module that comes
+/// back has no specialisation constants left, so the driver and the
+/// validation layer read only what the pipeline runs: the layer otherwise
+/// validates the whole module again for each specialisation, and lavapipe
+/// translates all of it before removing what the constants rule out.
+/// Kept in the cache's `specialised/` folder ([`cache_dir`]), as the
+/// kernels are, so a later process (or run) reads it back.
+pub fn specialise(words: &[u32], constants: &[(u32, u32)]) -> Result<Option<Vec<u32>>, String> {
+    use std::hash::{Hash, Hasher};
+    if !cfg!(isomarch_pass_list) {
+        return Ok(None);
+    }
+    let half = |salt: u8| {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        (salt, SHADERC, options::SPECIALISE, words, constants).hash(&mut h);
+        h.finish()
+    };
+    let dir = cache_dir().map(|d| d.join("specialised")).filter(|d| std::fs::create_dir_all(d).is_ok());
+    let path = dir.as_ref().map(|d| d.join(format!("{:016x}{:016x}.spv", half(1), half(2))));
+    if let Some(words) = path.as_deref().and_then(read_spirv) {
+        return Ok(Some(words));
+    }
+    let values: Vec<String> = constants.iter().map(|(id, v)| format!("{id}:{v}")).collect();
+    let mut passes = vec![format!("--set-spec-const-default-value={}", values.join(" "))];
+    passes.extend(options::SPECIALISE.iter().map(|p| p.to_string()));
+    // Not validated here: the validation layer, where it is on, validates
+    // the module that comes out.
+    let specialised = run_passes(words, &passes, false)?;
+    if let Some(path) = &path {
+        write_spirv(path, &specialised);
+    }
+    Ok(Some(specialised))
+}
+
+/// Writes `words` to `path` under a temporary name, then renames it, so
+/// that a reader never sees half a file; a cache that cannot be written
+/// costs only time.
+fn write_spirv(path: &Path, words: &[u32]) {
+    let Some(dir) = path.parent() else { return };
+    let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("kernel");
+    // A name of this process and write: threads may write the same file.
+    static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let write = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = dir.join(format!(".{name}.{}.{write}.tmp", std::process::id()));
     let written = std::fs::File::create(&tmp).and_then(|mut f| {
         let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
         f.write_all(&bytes)
     });
-    if written.is_err() || std::fs::rename(&tmp, &path).is_err() {
+    if written.is_err() || std::fs::rename(&tmp, path).is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
-    Ok(words)
 }
 
 /// A cached kernel's words, where the file holds SPIR-V (its magic number
@@ -225,7 +277,9 @@ fn compile(k: &KernelSource, opt: Optimisation, kept_in: Option<&Path>) -> Resul
         .compile_into_spirv(k.source, shaderc::ShaderKind::Compute, k.file, "main", Some(&options))
         .map_err(|e| format!("compiling the {} kernel: {e}", k.name))?;
     let words = match opt {
-        Optimisation::PassList => run_passes(artifact.as_binary(), options::PASSES).map_err(|e| format!("optimising the {} kernel: {e}", k.name))?,
+        Optimisation::PassList => {
+            run_passes(artifact.as_binary(), options::PASSES, true).map_err(|e| format!("optimising the {} kernel: {e}", k.name))?
+        }
         Optimisation::Performance | Optimisation::Zero => artifact.as_binary().to_vec(),
     };
     if kept_in.is_some() {
@@ -242,6 +296,7 @@ unsafe extern "C" {
         count: usize,
         flags: *const *const std::ffi::c_char,
         flag_count: usize,
+        validate: std::ffi::c_int,
         context: *mut std::ffi::c_void,
         sink: unsafe extern "C" fn(*mut std::ffi::c_void, *const u32, usize),
         report: unsafe extern "C" fn(*mut std::ffi::c_void, *const std::ffi::c_char),
@@ -251,7 +306,7 @@ unsafe extern "C" {
 /// Runs spirv-opt's `passes` (command-line flags) over `words` with the
 /// SPIRV-Tools inside the linked shaderc.
 #[cfg(isomarch_pass_list)]
-fn run_passes(words: &[u32], passes: &[&str]) -> Result<Vec<u32>, String> {
+fn run_passes(words: &[u32], passes: &[impl AsRef<str>], validate: bool) -> Result<Vec<u32>, String> {
     use std::ffi::{CStr, CString, c_char, c_void};
     /// What the optimizer hands back: the module's words and its messages.
     #[derive(Default)]
@@ -268,22 +323,23 @@ fn run_passes(words: &[u32], passes: &[&str]) -> Result<Vec<u32>, String> {
         // SAFETY: as in `sink`; the message is a NUL-terminated string.
         unsafe { (*context.cast::<Out>()).messages.push(CStr::from_ptr(text).to_string_lossy().into_owned()) }
     }
-    let flags: Vec<CString> = passes.iter().map(|p| CString::new(*p).map_err(|e| e.to_string())).collect::<Result<_, _>>()?;
+    let flags: Vec<CString> = passes.iter().map(|p| CString::new(p.as_ref()).map_err(|e| e.to_string())).collect::<Result<_, _>>()?;
     let pointers: Vec<*const c_char> = flags.iter().map(|f| f.as_ptr()).collect();
     let mut out = Out::default();
     // SAFETY: every pointer is valid for the call and its length; the
     // callbacks only reach `out` through `context`.
-    let status =
-        unsafe { isomarch_spirv_optimize(words.as_ptr(), words.len(), pointers.as_ptr(), pointers.len(), (&raw mut out).cast(), sink, report) };
+    let status = unsafe {
+        isomarch_spirv_optimize(words.as_ptr(), words.len(), pointers.as_ptr(), pointers.len(), validate.into(), (&raw mut out).cast(), sink, report)
+    };
     match status {
         0 if !out.words.is_empty() => Ok(out.words),
-        1 => Err(format!("spirv-opt does not know one of the passes {}", passes.join(" "))),
+        1 => Err(format!("spirv-opt does not know one of the passes {}", passes.iter().map(AsRef::as_ref).collect::<Vec<_>>().join(" "))),
         _ => Err(format!("spirv-opt failed (status {status}): {}", out.messages.join("; "))),
     }
 }
 
 #[cfg(not(isomarch_pass_list))]
-fn run_passes(_words: &[u32], _passes: &[&str]) -> Result<Vec<u32>, String> {
+fn run_passes(_words: &[u32], _passes: &[impl AsRef<str>], _validate: bool) -> Result<Vec<u32>, String> {
     Err("this build has no runner for spirv-opt's passes (shaderc built from source: shaders/build.rs)".into())
 }
 
@@ -311,7 +367,49 @@ mod tests {
         assert_eq!(words[0], 0x0723_0203);
         let zero = compile(Kernel::Index.source().unwrap(), Optimisation::Zero, None).unwrap();
         assert!(words.len() < zero.len(), "{} words optimised, {} not", words.len(), zero.len());
-        assert!(run_passes(&zero, &["--no-such-pass"]).unwrap_err().contains("--no-such-pass"));
+        assert!(run_passes(&zero, &["--no-such-pass"], true).unwrap_err().contains("--no-such-pass"));
+    }
+
+    /// The opcodes of a module's instructions.
+    fn opcodes(words: &[u32]) -> Vec<u32> {
+        let mut at = 5;
+        let mut ops = Vec::new();
+        while at < words.len() {
+            ops.push(words[at] & 0xffff);
+            at += (words[at] >> 16).max(1) as usize;
+        }
+        ops
+    }
+
+    /// Specialising the look kernel on each of its passes leaves no
+    /// specialisation constant (OpSpecConstant* are opcodes 48 to 52) and
+    /// a smaller module for each, different passes different modules.
+    #[test]
+    #[cfg(isomarch_pass_list)]
+    fn specialising_freezes_every_constant_and_removes_the_passes_not_taken() {
+        let words = Kernel::Look.spirv().unwrap();
+        // OpDecorate (71) of SpecId (1): the constants' ids.
+        let mut ids = Vec::new();
+        let mut at = 5;
+        while at < words.len() {
+            let (op, len) = (words[at] & 0xffff, (words[at] >> 16) as usize);
+            if op == 71 && words[at + 2] == 1 {
+                ids.push(words[at + 3]);
+            }
+            at += len.max(1);
+        }
+        assert!(!ids.is_empty(), "the look kernel has no specialisation constant");
+        assert!(opcodes(words).iter().any(|op| (48..=52).contains(op)));
+        let mut modules = Vec::new();
+        for pass in 0..3 {
+            let constants: Vec<(u32, u32)> = ids.iter().map(|&id| (id, pass)).collect();
+            let out = specialise(words, &constants).unwrap().expect("a pass-list build specialises");
+            assert_eq!(out[0], 0x0723_0203);
+            assert!(!opcodes(&out).iter().any(|op| (48..=52).contains(op)), "pass {pass}: a specialisation constant is left");
+            assert!(out.len() < words.len(), "pass {pass}: {} words specialised, {} not", out.len(), words.len());
+            modules.push(out);
+        }
+        assert!(modules[0] != modules[1] && modules[1] != modules[2], "two passes gave the same module");
     }
 
     #[test]

@@ -53,6 +53,14 @@ pub const PASSES: &[&str] = &[
     "--simplify-instructions",
 ];
 
+/// The passes that specialise an optimised kernel for one pipeline, after
+/// its constants' values are set: the constants frozen and folded, then
+/// the branches they decide and the code only those branches used
+/// removed. (The build script includes this file, and does not use it.)
+#[allow(dead_code)]
+pub const SPECIALISE: &[&str] =
+    &["--freeze-spec-const", "--fold-spec-const-op-composite", "--eliminate-dead-branches", "--eliminate-dead-code-aggressive"];
+
 /// Vulkan 1.2 SPIR-V from GLSL at `level`, warnings as errors, `define` set,
 /// and each include resolved by its name through `lookup`.
 pub fn options<'a>(

@@ -36,7 +36,8 @@ pub struct ComputePipeline {
 
 impl ComputePipeline {
     /// Builds the pipeline from SPIR-V, specialising `(constant_id, value)`
-    /// pairs: the driver removes the code paths they rule out. The
+    /// pairs: the code paths they rule out are removed on the host before
+    /// the driver sees the module ([`specialise_on_host`]). The
     /// pipeline and its layouts are the context's, made once per recipe
     /// ([`Context::shared_pipeline`]); the descriptor set is this one's.
     pub fn new(
@@ -109,6 +110,20 @@ impl ComputePipeline {
     }
 }
 
+/// Whether a pipeline's specialisation constants are applied on the host
+/// (`isomarch_shaders::specialise`: the default, `ISOMARCH_SPECIALISE=host`)
+/// or handed to the driver (`ISOMARCH_SPECIALISE=driver`). Both make the
+/// same frames (tests/specialise.rs); on the host the driver and the
+/// validation layer read a module of only what the pipeline runs
+/// (docs/performance.md, "Specialised on the host").
+fn specialise_on_host() -> Result<bool> {
+    match std::env::var("ISOMARCH_SPECIALISE").as_deref() {
+        Err(_) | Ok("" | "host") => Ok(true),
+        Ok("driver") => Ok(false),
+        Ok(other) => bail!("ISOMARCH_SPECIALISE={other:?}: expected host or driver"),
+    }
+}
+
 /// Makes a compute pipeline and its layouts from SPIR-V: one descriptor
 /// set of `bindings`, `push_constant_bytes` of push constants, and the
 /// `(constant_id, value)` specialisation.
@@ -120,6 +135,15 @@ fn make_pipeline(
     push_constant_bytes: u32,
     specialization: &[(u32, u32)],
 ) -> Result<SharedPipeline> {
+    let specialised = if specialization.is_empty() || !specialise_on_host()? {
+        None
+    } else {
+        isomarch_shaders::specialise(spirv, specialization).map_err(|e| anyhow::anyhow!("specialising a kernel: {e}"))?
+    };
+    let (spirv, specialization) = match &specialised {
+        Some(words) => (&words[..], &[][..]),
+        None => (spirv, specialization),
+    };
     let module_info = vk::ShaderModuleCreateInfo::default().code(spirv);
     // SAFETY: valid SPIR-V compiled by shaderc (isomarch-shaders).
     let module = unsafe { device.create_shader_module(&module_info, None) }.context("creating shader module")?;
