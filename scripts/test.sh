@@ -47,11 +47,14 @@ if [ $# -eq 0 ]; then
     timed cargo build --release --locked -p isomarch-shaders --bin isomarch-kernels
     nice -n 10 "$CARGO_TARGET_DIR/release/isomarch-kernels" &
     kernels=$!
+    # Not left running if the suite stops early (a failed build).
+    trap 'kill "$kernels" 2>/dev/null || true' EXIT
 fi
 # The build apart from the runs, so that the log says which took the time.
 timed cargo test --release --locked --no-run "$@"
 if [ -n "$kernels" ]; then
-    # From here on the tests wait for what it has left.
+    # From here on the tests wait for what it has left (only root may
+    # raise a priority again; elsewhere it finishes at nice 10).
     renice -n 0 -p "$kernels" >/dev/null 2>&1 || true
 fi
 if [ $# -gt 0 ]; then

@@ -4,14 +4,61 @@
 // 2023.1). Called from shaders/src/lib.rs; the list is
 // options::PASSES (docs/performance.md, "The shaders' build").
 
+#include <spirv-tools/libspirv.hpp>
 #include <spirv-tools/optimizer.hpp>
 
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 extern "C" {
+
+// Sets the specialisation constants `ids[k]` to the 32-bit patterns
+// `values[k]` (as a driver reads VkSpecializationInfo: bits, whatever the
+// constant's type), then runs `flags`, then validates what comes out.
+// Returns as isomarch_spirv_optimize, 4 when the result is not valid.
+int isomarch_spirv_specialise(const uint32_t* words, size_t count, const uint32_t* ids, const uint32_t* values, size_t constants,
+                              const char* const* flags, size_t flag_count, void* context, void (*sink)(void*, const uint32_t*, size_t),
+                              void (*report)(void*, const char*)) {
+    try {
+        spvtools::Optimizer optimizer(SPV_ENV_VULKAN_1_2);
+        auto consumer = [&](spv_message_level_t level, const char*, const spv_position_t&, const char* message) {
+            if (level <= SPV_MSG_ERROR) {
+                report(context, message);
+            }
+        };
+        optimizer.SetMessageConsumer(consumer);
+        std::unordered_map<uint32_t, std::vector<uint32_t>> bits;
+        for (size_t k = 0; k < constants; ++k) {
+            bits[ids[k]] = {values[k]};
+        }
+        optimizer.RegisterPass(spvtools::CreateSetSpecConstantDefaultValuePass(bits));
+        std::vector<std::string> list(flags, flags + flag_count);
+        if (!optimizer.RegisterPassesFromFlags(list)) {
+            return 1;
+        }
+        // The input is a kernel this program compiled and validated; what
+        // comes out is validated instead (a small module, a fraction of
+        // the time).
+        spvtools::OptimizerOptions options;
+        options.set_run_validator(false);
+        std::vector<uint32_t> result;
+        if (!optimizer.Run(words, count, &result, options)) {
+            return 2;
+        }
+        spvtools::SpirvTools tools(SPV_ENV_VULKAN_1_2);
+        tools.SetMessageConsumer(consumer);
+        if (!tools.Validate(result)) {
+            return 4;
+        }
+        sink(context, result.data(), result.size());
+        return 0;
+    } catch (...) {
+        return 3;
+    }
+}
 
 // The words of the optimised module go to `sink(context, words, count)`,
 // the optimizer's messages to `report(context, text)`. Returns 0 on

@@ -221,16 +221,19 @@ pub fn specialise(words: &[u32], constants: &[(u32, u32)]) -> Result<Option<Vec<
     if let Some(words) = path.as_deref().and_then(read_spirv) {
         return Ok(Some(words));
     }
-    let values: Vec<String> = constants.iter().map(|(id, v)| format!("{id}:{v}")).collect();
-    let mut passes = vec![format!("--set-spec-const-default-value={}", values.join(" "))];
-    passes.extend(options::SPECIALISE.iter().map(|p| p.to_string()));
-    // Not validated here: the validation layer, where it is on, validates
-    // the module that comes out.
-    let specialised = run_passes(words, &passes, false)?;
+    // The values as bits, whatever each constant's type; the kernel is not
+    // validated again, the module that comes out is.
+    let specialised = run_specialise(words, constants, options::SPECIALISE)?;
     if let Some(path) = &path {
         write_spirv(path, &specialised);
     }
     Ok(Some(specialised))
+}
+
+/// Whether this build can specialise on the host ([`specialise`] returns
+/// `None` where it cannot: shaderc built from source).
+pub fn can_specialise() -> bool {
+    cfg!(isomarch_pass_list)
 }
 
 /// Writes `words` to `path` under a temporary name, then renames it, so
@@ -242,7 +245,10 @@ fn write_spirv(path: &Path, words: &[u32]) {
     // A name of this process and write: threads may write the same file.
     static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let write = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tmp = dir.join(format!(".{name}.{}.{write}.tmp", std::process::id()));
+    // The clock's nanoseconds too: machines sharing a cache folder (a
+    // cluster's home) may run processes of the same id.
+    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.subsec_nanos()).unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.{}.{nanos}.{write}.tmp", std::process::id()));
     let written = std::fs::File::create(&tmp).and_then(|mut f| {
         let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
         f.write_all(&bytes)
@@ -301,45 +307,94 @@ unsafe extern "C" {
         sink: unsafe extern "C" fn(*mut std::ffi::c_void, *const u32, usize),
         report: unsafe extern "C" fn(*mut std::ffi::c_void, *const std::ffi::c_char),
     ) -> std::ffi::c_int;
+
+    /// shaders/cpp/optimize.cpp.
+    fn isomarch_spirv_specialise(
+        words: *const u32,
+        count: usize,
+        ids: *const u32,
+        values: *const u32,
+        constants: usize,
+        flags: *const *const std::ffi::c_char,
+        flag_count: usize,
+        context: *mut std::ffi::c_void,
+        sink: unsafe extern "C" fn(*mut std::ffi::c_void, *const u32, usize),
+        report: unsafe extern "C" fn(*mut std::ffi::c_void, *const std::ffi::c_char),
+    ) -> std::ffi::c_int;
 }
 
-/// Runs spirv-opt's `passes` (command-line flags) over `words` with the
-/// SPIRV-Tools inside the linked shaderc.
+/// What the optimizer hands back: the module's words and its messages.
 #[cfg(isomarch_pass_list)]
-fn run_passes(words: &[u32], passes: &[impl AsRef<str>], validate: bool) -> Result<Vec<u32>, String> {
-    use std::ffi::{CStr, CString, c_char, c_void};
-    /// What the optimizer hands back: the module's words and its messages.
-    #[derive(Default)]
-    struct Out {
-        words: Vec<u32>,
-        messages: Vec<String>,
-    }
-    unsafe extern "C" fn sink(context: *mut c_void, words: *const u32, count: usize) {
-        // SAFETY: `context` is the `Out` below, alive for the call; the
-        // optimizer's result holds `count` words at `words`.
-        unsafe { (*context.cast::<Out>()).words.extend_from_slice(std::slice::from_raw_parts(words, count)) }
-    }
-    unsafe extern "C" fn report(context: *mut c_void, text: *const c_char) {
-        // SAFETY: as in `sink`; the message is a NUL-terminated string.
-        unsafe { (*context.cast::<Out>()).messages.push(CStr::from_ptr(text).to_string_lossy().into_owned()) }
-    }
+#[derive(Default)]
+struct Out {
+    words: Vec<u32>,
+    messages: Vec<String>,
+}
+
+#[cfg(isomarch_pass_list)]
+unsafe extern "C" fn sink(context: *mut std::ffi::c_void, words: *const u32, count: usize) {
+    // SAFETY: `context` is an `Out` alive for the call (`run`); the
+    // optimizer's result holds `count` words at `words`.
+    unsafe { (*context.cast::<Out>()).words.extend_from_slice(std::slice::from_raw_parts(words, count)) }
+}
+
+#[cfg(isomarch_pass_list)]
+unsafe extern "C" fn report(context: *mut std::ffi::c_void, text: *const std::ffi::c_char) {
+    // SAFETY: as in `sink`; the message is a NUL-terminated string.
+    unsafe { (*context.cast::<Out>()).messages.push(std::ffi::CStr::from_ptr(text).to_string_lossy().into_owned()) }
+}
+
+/// Calls one of shaders/cpp/optimize.cpp's functions with `passes` as C
+/// strings and an `Out` for its callbacks, and reads its status.
+#[cfg(isomarch_pass_list)]
+fn run(
+    passes: &[impl AsRef<str>],
+    call: impl FnOnce(*const *const std::ffi::c_char, usize, *mut std::ffi::c_void) -> std::ffi::c_int,
+) -> Result<Vec<u32>, String> {
+    use std::ffi::{CString, c_char};
     let flags: Vec<CString> = passes.iter().map(|p| CString::new(p.as_ref()).map_err(|e| e.to_string())).collect::<Result<_, _>>()?;
     let pointers: Vec<*const c_char> = flags.iter().map(|f| f.as_ptr()).collect();
     let mut out = Out::default();
-    // SAFETY: every pointer is valid for the call and its length; the
-    // callbacks only reach `out` through `context`.
-    let status = unsafe {
-        isomarch_spirv_optimize(words.as_ptr(), words.len(), pointers.as_ptr(), pointers.len(), validate.into(), (&raw mut out).cast(), sink, report)
-    };
+    let status = call(pointers.as_ptr(), pointers.len(), (&raw mut out).cast());
     match status {
         0 if !out.words.is_empty() => Ok(out.words),
         1 => Err(format!("spirv-opt does not know one of the passes {}", passes.iter().map(AsRef::as_ref).collect::<Vec<_>>().join(" "))),
+        4 => Err(format!("the specialised module is not valid SPIR-V: {}", out.messages.join("; "))),
         _ => Err(format!("spirv-opt failed (status {status}): {}", out.messages.join("; "))),
     }
 }
 
+/// Runs spirv-opt's `passes` (command-line flags) over `words` with the
+/// SPIRV-Tools inside the linked shaderc, validating `words` first where
+/// `validate`.
+#[cfg(isomarch_pass_list)]
+fn run_passes(words: &[u32], passes: &[impl AsRef<str>], validate: bool) -> Result<Vec<u32>, String> {
+    run(passes, |flags, count, out| {
+        // SAFETY: every pointer is valid for the call and its length; the
+        // callbacks only reach `out` through their context.
+        unsafe { isomarch_spirv_optimize(words.as_ptr(), words.len(), flags, count, validate.into(), out, sink, report) }
+    })
+}
+
+/// Sets `constants` (ids and 32-bit patterns, as Vulkan's specialisation
+/// info gives them) in `words`, runs `passes`, and validates the result.
+#[cfg(isomarch_pass_list)]
+fn run_specialise(words: &[u32], constants: &[(u32, u32)], passes: &[impl AsRef<str>]) -> Result<Vec<u32>, String> {
+    let (ids, values): (Vec<u32>, Vec<u32>) = constants.iter().copied().unzip();
+    run(passes, |flags, count, out| {
+        // SAFETY: as in `run_passes`; `ids` and `values` hold
+        // `constants.len()` words each.
+        unsafe { isomarch_spirv_specialise(words.as_ptr(), words.len(), ids.as_ptr(), values.as_ptr(), ids.len(), flags, count, out, sink, report) }
+    })
+}
+
 #[cfg(not(isomarch_pass_list))]
 fn run_passes(_words: &[u32], _passes: &[impl AsRef<str>], _validate: bool) -> Result<Vec<u32>, String> {
+    Err("this build has no runner for spirv-opt's passes (shaderc built from source: shaders/build.rs)".into())
+}
+
+#[cfg(not(isomarch_pass_list))]
+fn run_specialise(_words: &[u32], _constants: &[(u32, u32)], _passes: &[impl AsRef<str>]) -> Result<Vec<u32>, String> {
     Err("this build has no runner for spirv-opt's passes (shaderc built from source: shaders/build.rs)".into())
 }
 

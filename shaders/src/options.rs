@@ -54,7 +54,7 @@ pub const PASSES: &[&str] = &[
 ];
 
 /// The passes that specialise an optimised kernel for one pipeline, after
-/// its constants' values are set: the constants frozen and folded, then
+/// its constants' values are set (as bits: shaders/cpp/optimize.cpp): the constants frozen and folded, then
 /// the branches they decide and the code only those branches used
 /// removed. (The build script includes this file, and does not use it.)
 #[allow(dead_code)]

@@ -11,7 +11,7 @@ mod transfer;
 
 pub use buffer::{Buffer, Role};
 pub use context::{Context, ContextOptions, DeviceInfo, list_devices};
-pub use pipeline::{ComputePipeline, bind_compute};
+pub use pipeline::{ComputePipeline, bind_compute, specialises_on_host};
 pub use present::{Presented, Presenter};
 pub use submit::{GpuError, Submitter};
 pub use transfer::{Fetch, TransferStats, Transfers, memory_barrier};

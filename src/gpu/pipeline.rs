@@ -124,6 +124,13 @@ fn specialise_on_host() -> Result<bool> {
     }
 }
 
+/// Whether this process's pipelines have their constants applied on the
+/// host: this build can (its shaderc's SPIRV-Tools is linked) and
+/// `ISOMARCH_SPECIALISE` does not say `driver`.
+pub fn specialises_on_host() -> Result<bool> {
+    Ok(isomarch_shaders::can_specialise() && specialise_on_host()?)
+}
+
 /// Makes a compute pipeline and its layouts from SPIR-V: one descriptor
 /// set of `bindings`, `push_constant_bytes` of push constants, and the
 /// `(constant_id, value)` specialisation.
