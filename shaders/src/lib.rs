@@ -223,7 +223,7 @@ pub fn specialise(words: &[u32], constants: &[(u32, u32)]) -> Result<Option<Vec<
     }
     // The values as bits, whatever each constant's type; the kernel is not
     // validated again, the module that comes out is.
-    let specialised = run_specialise(words, constants, options::SPECIALISE)?;
+    let specialised = run_passes(words, constants, options::SPECIALISE)?;
     if let Some(path) = &path {
         write_spirv(path, &specialised);
     }
@@ -284,7 +284,7 @@ fn compile(k: &KernelSource, opt: Optimisation, kept_in: Option<&Path>) -> Resul
         .map_err(|e| format!("compiling the {} kernel: {e}", k.name))?;
     let words = match opt {
         Optimisation::PassList => {
-            run_passes(artifact.as_binary(), options::PASSES, true).map_err(|e| format!("optimising the {} kernel: {e}", k.name))?
+            run_passes(artifact.as_binary(), &[], options::PASSES).map_err(|e| format!("optimising the {} kernel: {e}", k.name))?
         }
         Optimisation::Performance | Optimisation::Zero => artifact.as_binary().to_vec(),
     };
@@ -300,18 +300,6 @@ unsafe extern "C" {
     fn isomarch_spirv_optimize(
         words: *const u32,
         count: usize,
-        flags: *const *const std::ffi::c_char,
-        flag_count: usize,
-        validate: std::ffi::c_int,
-        context: *mut std::ffi::c_void,
-        sink: unsafe extern "C" fn(*mut std::ffi::c_void, *const u32, usize),
-        report: unsafe extern "C" fn(*mut std::ffi::c_void, *const std::ffi::c_char),
-    ) -> std::ffi::c_int;
-
-    /// shaders/cpp/optimize.cpp.
-    fn isomarch_spirv_specialise(
-        words: *const u32,
-        count: usize,
         ids: *const u32,
         values: *const u32,
         constants: usize,
@@ -323,78 +311,60 @@ unsafe extern "C" {
     ) -> std::ffi::c_int;
 }
 
-/// What the optimizer hands back: the module's words and its messages.
+/// Runs spirv-opt's `passes` (command-line flags) over `words` with the
+/// SPIRV-Tools inside the linked shaderc. Without `constants`, `words`
+/// (a kernel shaderc compiled) is validated first; with them (ids and
+/// 32-bit patterns, as Vulkan's specialisation info gives them), they are
+/// set before the passes, and the result is validated instead.
 #[cfg(isomarch_pass_list)]
-#[derive(Default)]
-struct Out {
-    words: Vec<u32>,
-    messages: Vec<String>,
-}
-
-#[cfg(isomarch_pass_list)]
-unsafe extern "C" fn sink(context: *mut std::ffi::c_void, words: *const u32, count: usize) {
-    // SAFETY: `context` is an `Out` alive for the call (`run`); the
-    // optimizer's result holds `count` words at `words`.
-    unsafe { (*context.cast::<Out>()).words.extend_from_slice(std::slice::from_raw_parts(words, count)) }
-}
-
-#[cfg(isomarch_pass_list)]
-unsafe extern "C" fn report(context: *mut std::ffi::c_void, text: *const std::ffi::c_char) {
-    // SAFETY: as in `sink`; the message is a NUL-terminated string.
-    unsafe { (*context.cast::<Out>()).messages.push(std::ffi::CStr::from_ptr(text).to_string_lossy().into_owned()) }
-}
-
-/// Calls one of shaders/cpp/optimize.cpp's functions with `passes` as C
-/// strings and an `Out` for its callbacks, and reads its status.
-#[cfg(isomarch_pass_list)]
-fn run(
-    passes: &[impl AsRef<str>],
-    call: impl FnOnce(*const *const std::ffi::c_char, usize, *mut std::ffi::c_void) -> std::ffi::c_int,
-) -> Result<Vec<u32>, String> {
-    use std::ffi::{CString, c_char};
-    let flags: Vec<CString> = passes.iter().map(|p| CString::new(p.as_ref()).map_err(|e| e.to_string())).collect::<Result<_, _>>()?;
+fn run_passes(words: &[u32], constants: &[(u32, u32)], passes: &[&str]) -> Result<Vec<u32>, String> {
+    use std::ffi::{CStr, CString, c_char, c_void};
+    /// What the optimizer hands back: the module's words and its messages.
+    #[derive(Default)]
+    struct Out {
+        words: Vec<u32>,
+        messages: Vec<String>,
+    }
+    unsafe extern "C" fn sink(context: *mut c_void, words: *const u32, count: usize) {
+        // SAFETY: `context` is the `Out` below, alive for the call; the
+        // optimizer's result holds `count` words at `words`.
+        unsafe { (*context.cast::<Out>()).words.extend_from_slice(std::slice::from_raw_parts(words, count)) }
+    }
+    unsafe extern "C" fn report(context: *mut c_void, text: *const c_char) {
+        // SAFETY: as in `sink`; the message is a NUL-terminated string.
+        unsafe { (*context.cast::<Out>()).messages.push(CStr::from_ptr(text).to_string_lossy().into_owned()) }
+    }
+    let flags: Vec<CString> = passes.iter().map(|p| CString::new(*p).map_err(|e| e.to_string())).collect::<Result<_, _>>()?;
     let pointers: Vec<*const c_char> = flags.iter().map(|f| f.as_ptr()).collect();
+    let (ids, values): (Vec<u32>, Vec<u32>) = constants.iter().copied().unzip();
     let mut out = Out::default();
-    let status = call(pointers.as_ptr(), pointers.len(), (&raw mut out).cast());
+    // SAFETY: every pointer is valid for the call and its length (`ids`
+    // and `values` hold `constants.len()` words each); the callbacks only
+    // reach `out` through `context`.
+    let status = unsafe {
+        isomarch_spirv_optimize(
+            words.as_ptr(),
+            words.len(),
+            ids.as_ptr(),
+            values.as_ptr(),
+            ids.len(),
+            pointers.as_ptr(),
+            pointers.len(),
+            (&raw mut out).cast(),
+            sink,
+            report,
+        )
+    };
     match status {
         0 if !out.words.is_empty() => Ok(out.words),
-        1 => Err(format!("spirv-opt does not know one of the passes {}", passes.iter().map(AsRef::as_ref).collect::<Vec<_>>().join(" "))),
+        1 => Err(format!("spirv-opt does not know one of the passes {}", passes.join(" "))),
         4 => Err(format!("the specialised module is not valid SPIR-V: {}", out.messages.join("; "))),
         _ => Err(format!("spirv-opt failed (status {status}): {}", out.messages.join("; "))),
     }
 }
 
-/// Runs spirv-opt's `passes` (command-line flags) over `words` with the
-/// SPIRV-Tools inside the linked shaderc, validating `words` first where
-/// `validate`.
-#[cfg(isomarch_pass_list)]
-fn run_passes(words: &[u32], passes: &[impl AsRef<str>], validate: bool) -> Result<Vec<u32>, String> {
-    run(passes, |flags, count, out| {
-        // SAFETY: every pointer is valid for the call and its length; the
-        // callbacks only reach `out` through their context.
-        unsafe { isomarch_spirv_optimize(words.as_ptr(), words.len(), flags, count, validate.into(), out, sink, report) }
-    })
-}
-
-/// Sets `constants` (ids and 32-bit patterns, as Vulkan's specialisation
-/// info gives them) in `words`, runs `passes`, and validates the result.
-#[cfg(isomarch_pass_list)]
-fn run_specialise(words: &[u32], constants: &[(u32, u32)], passes: &[impl AsRef<str>]) -> Result<Vec<u32>, String> {
-    let (ids, values): (Vec<u32>, Vec<u32>) = constants.iter().copied().unzip();
-    run(passes, |flags, count, out| {
-        // SAFETY: as in `run_passes`; `ids` and `values` hold
-        // `constants.len()` words each.
-        unsafe { isomarch_spirv_specialise(words.as_ptr(), words.len(), ids.as_ptr(), values.as_ptr(), ids.len(), flags, count, out, sink, report) }
-    })
-}
-
 #[cfg(not(isomarch_pass_list))]
-fn run_passes(_words: &[u32], _passes: &[impl AsRef<str>], _validate: bool) -> Result<Vec<u32>, String> {
-    Err("this build has no runner for spirv-opt's passes (shaderc built from source: shaders/build.rs)".into())
-}
-
-#[cfg(not(isomarch_pass_list))]
-fn run_specialise(_words: &[u32], _constants: &[(u32, u32)], _passes: &[impl AsRef<str>]) -> Result<Vec<u32>, String> {
+fn run_passes(_words: &[u32], _constants: &[(u32, u32)], _passes: &[&str]) -> Result<Vec<u32>, String> {
     Err("this build has no runner for spirv-opt's passes (shaderc built from source: shaders/build.rs)".into())
 }
 
@@ -422,18 +392,24 @@ mod tests {
         assert_eq!(words[0], 0x0723_0203);
         let zero = compile(Kernel::Index.source().unwrap(), Optimisation::Zero, None).unwrap();
         assert!(words.len() < zero.len(), "{} words optimised, {} not", words.len(), zero.len());
-        assert!(run_passes(&zero, &["--no-such-pass"], true).unwrap_err().contains("--no-such-pass"));
+        assert!(run_passes(&zero, &[], &["--no-such-pass"]).unwrap_err().contains("--no-such-pass"));
+    }
+
+    /// A module's instructions, each its words (opcode and length first).
+    fn instructions(words: &[u32]) -> Vec<&[u32]> {
+        let mut at = 5;
+        let mut found = Vec::new();
+        while at < words.len() {
+            let len = ((words[at] >> 16) as usize).max(1);
+            found.push(&words[at..(at + len).min(words.len())]);
+            at += len;
+        }
+        found
     }
 
     /// The opcodes of a module's instructions.
     fn opcodes(words: &[u32]) -> Vec<u32> {
-        let mut at = 5;
-        let mut ops = Vec::new();
-        while at < words.len() {
-            ops.push(words[at] & 0xffff);
-            at += (words[at] >> 16).max(1) as usize;
-        }
-        ops
+        instructions(words).iter().map(|i| i[0] & 0xffff).collect()
     }
 
     /// Specialising the look kernel on each of its passes leaves no
@@ -444,15 +420,7 @@ mod tests {
     fn specialising_freezes_every_constant_and_removes_the_passes_not_taken() {
         let words = Kernel::Look.spirv().unwrap();
         // OpDecorate (71) of SpecId (1): the constants' ids.
-        let mut ids = Vec::new();
-        let mut at = 5;
-        while at < words.len() {
-            let (op, len) = (words[at] & 0xffff, (words[at] >> 16) as usize);
-            if op == 71 && words[at + 2] == 1 {
-                ids.push(words[at + 3]);
-            }
-            at += len.max(1);
-        }
+        let ids: Vec<u32> = instructions(words).iter().filter(|i| i[0] & 0xffff == 71 && i.len() > 3 && i[2] == 1).map(|i| i[3]).collect();
         assert!(!ids.is_empty(), "the look kernel has no specialisation constant");
         assert!(opcodes(words).iter().any(|op| (48..=52).contains(op)));
         let mut modules = Vec::new();
