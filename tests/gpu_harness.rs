@@ -232,21 +232,30 @@ fn an_environment_switch_that_is_neither_on_nor_off_is_refused() {
 /// pipeline's warm-up dispatch keeps that out of the GPU time, and the
 /// time it took is reported apart (`pipeline_ms`). With Mesa's shader
 /// cache and isomarch's pipeline cache empty before a first run (the
-/// SPIR-V compiled by an earlier run, as a user's would be), its GPU
-/// time is within 3x of a second run's with both caches warm (before the
-/// warm-up: fig1 with RAA at 64x64, 322 ms against 4.2 ms). Noise only
-/// lengthens a run, so the fastest of two first runs (each with its own
-/// empty caches) is held against the fastest of two second runs.
+/// SPIR-V compiled by an earlier run, as a user's would be), the first
+/// frame costs the compile more than a second run with both caches warm
+/// (`frame_ms`, about 1 s against 0.1 s here). At most a quarter of that
+/// difference may show in the GPU time: with the compile inside the
+/// timestamps (before the warm-up: fig1 with RAA at 64x64, 322 ms against
+/// 4.2 ms) all of it did.
+///
+/// The scale is the compile itself, not the march's few milliseconds: a
+/// bound of 3x the warm GPU time failed in CI under the suite's load
+/// (on an idle machine a first run's 96x96 march took 8.6-17.9 ms against
+/// 4.2-18.7 ms, with or without the shader cache). Noise only lengthens a
+/// run, so of two attempts (each with its own empty caches) the one whose
+/// GPU time moved least is held.
 #[test]
 fn a_first_run_with_empty_caches_times_the_march_not_the_compiler() {
     let dir = scratch("first-run");
     let methods: [&[&str]; 2] = [&["--method", "raa"], &["--method", "quadratic-taylor", "--refine", "bisection"]];
     for method in methods {
-        let (mut first, mut second) = (Vec::new(), Vec::new());
+        let mut shares = Vec::new();
         for attempt in 0..2 {
             let caches = dir.join(format!("caches-{}-{attempt}", method.join("-")));
             std::fs::create_dir_all(&caches).unwrap();
-            for (run, times) in [(0, &mut first), (1, &mut second)] {
+            let mut runs = Vec::new();
+            for run in 0..2 {
                 let stats = caches.join(format!("stats-{run}.json"));
                 isomarch(["render", "scenes/fig1.ron", "--opaque", "--size", "96x96", "-o"])
                     .arg(caches.join("x.png"))
@@ -261,22 +270,29 @@ fn a_first_run_with_empty_caches_times_the_march_not_the_compiler() {
                     .current_dir(repo_root())
                     .ok();
                 let s = json(&stats);
-                let pipeline = s["pipeline_ms"].as_f64().unwrap_or_else(|| panic!("no pipeline_ms: {s}"));
-                assert!(pipeline > 0.0, "{s}");
-                times.push(s["gpu_ms"].as_f64().unwrap_or_else(|| panic!("no gpu_ms: {s}")));
+                let ms = |key: &str| s[key].as_f64().unwrap_or_else(|| panic!("no {key}: {s}"));
+                assert!(ms("pipeline_ms") > 0.0, "{s}");
+                runs.push((ms("gpu_ms"), ms("frame_ms")));
             }
             assert!(
                 std::fs::read_dir(caches.join("mesa")).is_ok_and(|mut d| d.next().is_some()),
                 "Mesa's cache was not used at {}",
                 caches.display()
             );
+            let ((cold_gpu, cold_frame), (warm_gpu, warm_frame)) = (runs[0], runs[1]);
+            let compile = cold_frame - warm_frame;
+            assert!(
+                compile > 0.0,
+                "{method:?}: a first run with empty caches took {cold_frame:.1} ms, no longer than a second's {warm_frame:.1} ms: \
+                 nothing was compiled, so this proves nothing"
+            );
+            shares.push((
+                (cold_gpu - warm_gpu) / compile,
+                format!("GPU {cold_gpu:.1} and {warm_gpu:.1} ms, frame {cold_frame:.1} and {warm_frame:.1} ms"),
+            ));
         }
-        let fastest = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
-        let (cold, warm) = (fastest(&first), fastest(&second));
-        assert!(
-            cold <= 3.0 * warm,
-            "{method:?}: a first run's GPU time {cold:.1} ms against a second's {warm:.1} ms (runs {first:?} and {second:?})"
-        );
+        let (share, runs) = shares.iter().min_by(|a, b| a.0.total_cmp(&b.0)).unwrap();
+        assert!(*share <= 0.25, "{method:?}: {:.0}% of what a first run's compile costs showed in its GPU time ({runs})", share * 100.0);
     }
 }
 
