@@ -208,7 +208,7 @@ fn load_or_compile(k: &KernelSource) -> Result<Vec<u32>, String> {
 /// kernels are, so a later process (or run) reads it back.
 pub fn specialise(words: &[u32], constants: &[(u32, u32)]) -> Result<Option<Vec<u32>>, String> {
     use std::hash::{Hash, Hasher};
-    if !cfg!(isomarch_pass_list) {
+    if !can_specialise() {
         return Ok(None);
     }
     let half = |salt: u8| {
